@@ -1,0 +1,24 @@
+"""Shared test fixtures and the guard that MicroPython tests really ran."""
+
+import os
+
+import pytest
+
+_micropython_passed = []
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "micropython: runs code on a real MicroPython interpreter")
+
+
+def pytest_runtest_logreport(report):
+    if report.when == "call" and report.passed and "micropython" in report.keywords:
+        _micropython_passed.append(report.nodeid)
+
+
+def pytest_sessionfinish(session, exitstatus):
+    # tools/dev.py test sets this: a full run in which no MicroPython test passed is a failure,
+    # never a silent pass (the interpreters are what prove the board code allocation-free).
+    if os.environ.get("APOGEE_REQUIRE_MICROPYTHON") == "1" and not _micropython_passed:
+        print("\nERROR: no MicroPython test ran and passed; the interpreters are required")
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
