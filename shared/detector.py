@@ -1,0 +1,94 @@
+"""Per-sample driver of the Kalman filter: picks the gains for each sample's period, predicts
+across dropouts, and corrects with whichever readings the sample carries.
+
+Portable and allocation-free per sample. Time is integer microseconds (``dt_us``: time since
+the previous sample). Readings: barometric altitude in mm (any datum) and kinematic acceleration
+in mm/s^2 (specific force minus the pad's 1 g; 0 at rest, about -9807 in drag-free coast).
+"""
+
+try:
+    from micropython import const
+except ImportError:
+    def const(x):
+        return x
+
+from shared.kalman import Kalman
+
+HAVE_BARO = const(1)
+HAVE_ACCEL = const(2)
+HAVE_BOTH = const(3)
+
+# A gap longer than this many periods of the nearest table rate is predicted across in steps
+# (a dropout); the loop is bounded so a stalled clock cannot stall the flight loop.
+MAX_PREDICT_STEPS = const(600)
+
+
+class Detector:
+    """Kalman filter plus an apogee rule, stepped once per sample.
+
+    Parameters
+    ----------
+    table : tuple of gain rows (``shared.gains_table.PROJECT`` or ``SEED``)
+    rule : object with ``reset()`` and ``update(kf, rate_hz, enabled) -> bool``
+    """
+
+    def __init__(self, table, rule):
+        self.table = table
+        self.rule = rule
+        self.kf = Kalman()
+        self.row = table[0]
+        self.dt_us = -1  # period the cached row and predict_steps belong to
+        self.predict_steps = 0  # predictions per step: 1 normally, more across a gap
+
+    def start(self, alt_mm, acc_mmps2=0):
+        """Initialise the state at rest at ``alt_mm`` (the seed starts from [alt(1); 0; accel(1)])."""
+        self.kf.reset(alt_mm, 0, acc_mmps2)
+        self.rule.reset()
+
+    def step(self, dt_us, alt_mm, acc_mmps2, have, enabled):
+        """Advance by ``dt_us`` and correct with the readings flagged in ``have``.
+
+        Returns True on the sample at which the rule declares apogee (``enabled`` permitting).
+        """
+        if dt_us != self.dt_us:  # re-select only when the period changes: this loops over the table
+            self._set_period(dt_us)
+        row = self.row
+        kf = self.kf
+        for _ in range(self.predict_steps):
+            kf.predict(row)
+        if have == HAVE_BOTH:
+            kf.correct(row, alt_mm, acc_mmps2)
+        elif have == HAVE_BARO:
+            kf.correct_baro(row, alt_mm)
+        elif have == HAVE_ACCEL:
+            kf.correct_accel(row, acc_mmps2)
+        return self.rule.update(kf, row[0], enabled)
+
+    def _set_period(self, dt_us):
+        """Select the gain row and the number of its periods that cover ``dt_us``.
+
+        A period within 1/8 of a table rate's period is one step of that rate (jitter, or a logger
+        changing rate: 10 ms, then 100 ms). Anything else is a gap: whole periods of the rate in
+        use before it (a 60 ms gap at 100 Hz is six 100 Hz steps), at most MAX_PREDICT_STEPS.
+        """
+        best = self.table[0]
+        best_err = 0x3FFFFFFF
+        for row in self.table:
+            err = 1000000 // row[0] - dt_us
+            if err < 0:
+                err = -err
+            if err < best_err:
+                best = row
+                best_err = err
+        if best_err * 8 <= 1000000 // best[0]:
+            self.row = best
+            steps = 1
+        else:
+            period_us = 1000000 // self.row[0]
+            steps = (dt_us + (period_us >> 1)) // period_us
+            if steps < 1:
+                steps = 1
+            elif steps > MAX_PREDICT_STEPS:
+                steps = MAX_PREDICT_STEPS
+        self.dt_us = dt_us
+        self.predict_steps = steps

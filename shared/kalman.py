@@ -1,0 +1,102 @@
+"""Fixed-gain Kalman filter over barometric altitude and acceleration, in integer fixed point.
+
+Portable: runs unchanged on MicroPython and CPython; no allocation per sample on MicroPython.
+
+State (instance attributes, ints), all in one length unit, 1/16 mm (4 fractional bits):
+
+- ``alt_q4`` altitude, mm * 16 (same datum as the altitude measurements)
+- ``vel_q4`` vertical velocity, mm/s * 16
+- ``acc_q4`` vertical (kinematic) acceleration, mm/s^2 * 16; 0 at rest
+
+Range: every intermediate stays within +-2**30 (31-bit small ints on 32-bit boards):
+measurements are clamped to +-MEAS_LIMIT_MM (33.5 km, 3.3 km/s^2), innovations to +-(2**27 - 1)
+(8.4 km), altitude to +-ALT_LIMIT_Q4 (33.5 km), velocity and acceleration to +-RATE_LIMIT_Q4
+(8.4 km/s, 855 g). With |K| < 1, no sum below leaves the range.
+
+Gains come from ``shared/gains_table.py`` rows: ``row[0]`` is the sample rate in Hz (one
+prediction is T = 1/rate s exactly), then (mantissa, shift) pairs, K = mantissa / 2**shift:
+row[1:13] combined gains K00 K01 K10 K11 K20 K21, row[13:19] barometer-only K0 K1 K2,
+row[19:25] accelerometer-only K0 K1 K2.
+"""
+
+try:
+    from micropython import const
+except ImportError:
+    def const(x):
+        return x
+
+MEAS_LIMIT_MM = const(0x1FFFFFF)  # 2**25 - 1 mm: 33.5 km, or 3.3e7 mm/s^2 (3400 g)
+ALT_LIMIT_Q4 = const(0x1FFFFFFF)  # 2**29 - 1 (1/16 mm): 33.5 km
+RATE_LIMIT_Q4 = const(0x7FFFFFF)  # 2**27 - 1 (1/16 mm/s or mm/s^2): 8.4 km/s, 855 g
+_INNOV_LIMIT = const(0x7FFFFFF)  # 2**27 - 1 (1/16 mm): 8.4 km, inside _mul_gain's domain
+
+
+def _mul_gain(e, m, s):
+    """round(e * m / 2**s), half up, for |e| < 2**28, |m| < 2**14, 14 <= s <= 28, in 31 bits.
+
+    e = hi * 2**14 + lo with 0 <= lo < 2**14, so e*m = (hi*m) * 2**14 + lo*m. The high product is
+    split at bit r = s - 14 into its quotient and remainder; the remainder rejoins the low product,
+    so the result is exactly rounded (a truncating product biases every correction by about one
+    unit, which the slow velocity loop turns into centimetres of altitude error).
+    """
+    p = (e >> 14) * m
+    r = s - 14
+    return (p >> r) + ((((p & ((1 << r) - 1)) << 14) + (e & 0x3FFF) * m + (1 << (s - 1))) >> s)
+
+
+def _clamp(x, limit):
+    if x > limit:
+        return limit
+    if x < -limit:
+        return -limit
+    return x
+
+
+class Kalman:
+    """Three-state (altitude, velocity, acceleration) filter with precomputed gains."""
+
+    def __init__(self):
+        self.alt_q4 = 0
+        self.vel_q4 = 0
+        self.acc_q4 = 0
+
+    def reset(self, alt_mm, vel_mmps=0, acc_mmps2=0):
+        """Set the state from values in mm, mm/s, mm/s^2."""
+        self.alt_q4 = _clamp(_clamp(alt_mm, MEAS_LIMIT_MM) << 4, ALT_LIMIT_Q4)
+        self.vel_q4 = _clamp(_clamp(vel_mmps, MEAS_LIMIT_MM) << 4, RATE_LIMIT_Q4)
+        self.acc_q4 = _clamp(_clamp(acc_mmps2, MEAS_LIMIT_MM) << 4, RATE_LIMIT_Q4)
+
+    def predict(self, row):
+        """Advance the state by one period T = 1 / row[0] s (constant-acceleration model)."""
+        rate = row[0]
+        dv = (self.acc_q4 + (rate >> 1)) // rate  # a*T, rounded
+        # h += v*T + a*T^2/2 = (2v + a*T) / (2 rate), rounded
+        self.alt_q4 = _clamp(self.alt_q4 + (2 * self.vel_q4 + dv + rate) // (2 * rate), ALT_LIMIT_Q4)
+        self.vel_q4 = _clamp(self.vel_q4 + dv, RATE_LIMIT_Q4)
+
+    def correct(self, row, alt_mm, acc_mmps2):
+        """Correct with a barometric altitude (mm) and a kinematic acceleration (mm/s^2)."""
+        eh = _clamp((_clamp(alt_mm, MEAS_LIMIT_MM) << 4) - self.alt_q4, _INNOV_LIMIT)
+        ea = _clamp((_clamp(acc_mmps2, MEAS_LIMIT_MM) << 4) - self.acc_q4, _INNOV_LIMIT)
+        self.alt_q4 = _clamp(self.alt_q4 + _mul_gain(eh, row[1], row[2]) + _mul_gain(ea, row[3], row[4]),
+                             ALT_LIMIT_Q4)
+        self.vel_q4 = _clamp(self.vel_q4 + _mul_gain(eh, row[5], row[6]) + _mul_gain(ea, row[7], row[8]),
+                             RATE_LIMIT_Q4)
+        self.acc_q4 = _clamp(self.acc_q4 + _mul_gain(eh, row[9], row[10]) + _mul_gain(ea, row[11], row[12]),
+                             RATE_LIMIT_Q4)
+
+    def correct_baro(self, row, alt_mm):
+        """Correct with a barometric altitude (mm) only (no accelerometer reading)."""
+        e = _clamp((_clamp(alt_mm, MEAS_LIMIT_MM) << 4) - self.alt_q4, _INNOV_LIMIT)
+        self._add(e, row, 13)
+
+    def correct_accel(self, row, acc_mmps2):
+        """Correct with a kinematic acceleration (mm/s^2) only (no barometer reading)."""
+        e = _clamp((_clamp(acc_mmps2, MEAS_LIMIT_MM) << 4) - self.acc_q4, _INNOV_LIMIT)
+        self._add(e, row, 19)
+
+    def _add(self, e, row, i):
+        """Add K e for the single-sensor gains starting at row[i]."""
+        self.alt_q4 = _clamp(self.alt_q4 + _mul_gain(e, row[i], row[i + 1]), ALT_LIMIT_Q4)
+        self.vel_q4 = _clamp(self.vel_q4 + _mul_gain(e, row[i + 2], row[i + 3]), RATE_LIMIT_Q4)
+        self.acc_q4 = _clamp(self.acc_q4 + _mul_gain(e, row[i + 4], row[i + 5]), RATE_LIMIT_Q4)

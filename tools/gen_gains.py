@@ -1,0 +1,238 @@
+"""Compute the fixed Kalman gains and write them as integers to ``shared/gains_table.py``.
+
+Model (seed, chapter 3): state x = (altitude, velocity, acceleration), constant-acceleration
+transition A = [[1, T, T^2/2], [0, 1, T], [0, 0, 1]], measurements of altitude (barometer) and
+acceleration (accelerometer): H_both = [[1,0,0],[0,0,1]], H_baro = [[1,0,0]], H_accel = [[0,0,1]].
+
+Two families of gains:
+
+``seed``
+    The seed's recursion reproduced exactly: P = I, 20 iterations of K = P H' (H P H' + R)^-1,
+    P = (I - K H) P, P = A P A' + Q, with R = diag(35.8229, 0.0012), Q = diag(0, 0, 1), T = 0.05 s.
+    Only for T = 0.05 s (the seed samples at 20 Hz); used to replicate the seed's study.
+
+``project``
+    Converged (steady-state) gains from scipy's discrete algebraic Riccati solver (the
+    accelerometer-only filter, which has no finite Riccati solution, from the limit of the
+    recursion), for every sample rate the board supports. Noise parameters (SI units), chosen
+    as AltOS chose them after years of flights (../shared/reference/altos.md section 1.3):
+
+    - process noise: continuous white jerk, spectral density SIGMA_JERK^2 (m^2/s^5), discretised
+      exactly: Q = q [[T^5/20, T^4/8, T^3/6], [T^4/8, T^3/3, T^2/2], [T^3/6, T^2/2, T]].
+      It lets the acceleration state follow motor burn-out and drag changes within ~0.2 s.
+    - barometer: SIGMA_ALT_M = 6 m. Real parts are quieter (0.1-1 m RMS, ../shared/reference
+      section 5.3), but their errors are dominated by transients (ejection, av-bay venting,
+      transonic static-pressure error) that 6 m covers; the seed's simulated barometer has 5.985 m.
+    - accelerometer: SIGMA_ACCEL_MPS2 = 2 m/s^2: noise, vibration and the unknown tilt between the
+      rocket's axis and the vertical.
+
+Run ``python tools/gen_gains.py`` to rewrite the table, ``--check`` to verify the committed one,
+``--print-seed`` to print the seed's K at T = 0.05 s.
+"""
+
+import argparse
+import math
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import scipy.linalg
+
+OUT = Path(__file__).resolve().parent.parent / "shared" / "gains_table.py"
+
+SEED_R = np.diag([35.8229, 0.0012])
+SEED_Q = np.diag([0.0, 0.0, 1.0])
+SEED_T_S = 0.05
+SEED_ITERATIONS = 20
+
+SIGMA_JERK = 2.0  # sqrt of white-jerk spectral density, m/s^2.5 (AltOS sigma_m)
+SIGMA_ALT_M = 6.0
+SIGMA_ACCEL_MPS2 = 2.0
+RATES_HZ = (10, 20, 25, 50, 100, 200)
+
+# Integer gain format: K ~= m / 2**s with |m| < 2**14 and 14 <= s <= 28, the domain in which
+# shared/kalman.py's rounded product stays within 31 bits: a 14-bit mantissa for any |K| < 1.
+MANTISSA_BITS = 14
+SHIFT_MIN = 14
+SHIFT_MAX = 28
+
+H_BOTH = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+H_BARO = np.array([[1.0, 0.0, 0.0]])
+H_ACCEL = np.array([[0.0, 0.0, 1.0]])
+
+
+def transition(t_s):
+    """State transition A for a step of ``t_s`` seconds, shape (3, 3)."""
+    return np.array([[1.0, t_s, t_s * t_s / 2.0], [0.0, 1.0, t_s], [0.0, 0.0, 1.0]])
+
+
+def white_jerk_q(t_s, sigma_jerk=SIGMA_JERK):
+    """Process noise of a continuous white-jerk model over one step, shape (3, 3)."""
+    t = t_s
+    return sigma_jerk**2 * np.array([
+        [t**5 / 20, t**4 / 8, t**3 / 6],
+        [t**4 / 8, t**3 / 3, t**2 / 2],
+        [t**3 / 6, t**2 / 2, t],
+    ])
+
+
+def seed_gain(h=H_BOTH, r=SEED_R, t_s=SEED_T_S, q=SEED_Q, iterations=SEED_ITERATIONS):
+    """The seed's MATLAB recursion, operation for operation. Returns K, shape (3, n_meas)."""
+    a = transition(t_s)
+    p = np.eye(3)
+    k = None
+    for _ in range(iterations):
+        k = p @ h.T @ np.linalg.inv(h @ p @ h.T + r)
+        p = (np.eye(3) - k @ h) @ p
+        p = a @ p @ a.T + q
+    return k
+
+
+def steady_gain(t_s, h, r, sigma_jerk=SIGMA_JERK):
+    """Converged gain K = P- H' (H P- H' + R)^-1, P- from scipy's discrete Riccati solver.
+
+    The accelerometer-only filter has unobservable altitude and velocity, so the Riccati equation
+    has no finite solution; its gain is the limit of the recursion (``iterated_gain``).
+    """
+    a = transition(t_s)
+    q = white_jerk_q(t_s, sigma_jerk)
+    try:
+        p_prior = scipy.linalg.solve_discrete_are(a.T, h.T, q, r)
+    except np.linalg.LinAlgError:
+        return iterated_gain(t_s, h, r, sigma_jerk)
+    return p_prior @ h.T @ np.linalg.inv(h @ p_prior @ h.T + r)
+
+
+def iterated_gain(t_s, h, r, sigma_jerk=SIGMA_JERK, tol=1e-14, max_iterations=500000):
+    """Limit of the Riccati recursion from P = 0 (as AltOS's make-kalman computes its gains)."""
+    a = transition(t_s)
+    q = white_jerk_q(t_s, sigma_jerk)
+    p = np.zeros((3, 3))
+    k_prev = None
+    for _ in range(max_iterations):
+        p_prior = a @ p @ a.T + q
+        k = p_prior @ h.T @ np.linalg.inv(h @ p_prior @ h.T + r)
+        p = (np.eye(3) - k @ h) @ p_prior
+        if k_prev is not None and np.max(np.abs(k - k_prev)) < tol:
+            return k
+        k_prev = k
+    raise RuntimeError("Kalman gain did not converge for T=%g s" % t_s)
+
+
+def project_gains(rate_hz):
+    """The three gain matrices (both, baro, accel) of the project family at ``rate_hz``."""
+    t_s = 1.0 / rate_hz
+    both = steady_gain(t_s, H_BOTH, np.diag([SIGMA_ALT_M**2, SIGMA_ACCEL_MPS2**2]))
+    baro = steady_gain(t_s, H_BARO, np.array([[SIGMA_ALT_M**2]]))
+    accel = steady_gain(t_s, H_ACCEL, np.array([[SIGMA_ACCEL_MPS2**2]]))
+    return both, baro, accel
+
+
+def seed_family_gains():
+    """Seed gains in the same (both, baro, accel) layout; the seed has only the combined filter,
+    so its single-sensor gains (used when one reading is missing) come from the same recursion."""
+    both = seed_gain()
+    baro = seed_gain(H_BARO, SEED_R[:1, :1])
+    accel = seed_gain(H_ACCEL, SEED_R[1:, 1:])
+    return both, baro, accel
+
+
+def to_fixed(k):
+    """Encode a gain as (mantissa, shift) with k ~= mantissa / 2**shift."""
+    if not -1.0 < k < 1.0:
+        raise ValueError("gain %r out of the supported range (-1, 1)" % k)
+    if k == 0.0:
+        return 0, SHIFT_MAX
+    shift = MANTISSA_BITS - 1 - math.floor(math.log2(abs(k)))
+    shift = max(SHIFT_MIN, min(SHIFT_MAX, shift))
+    mantissa = int(round(k * 2**shift))
+    if abs(mantissa) >= 2**MANTISSA_BITS:  # rounding carried into the next power of two
+        shift -= 1
+        mantissa = int(round(k * 2**shift))
+    if shift < SHIFT_MIN or abs(mantissa) >= 2**MANTISSA_BITS:
+        raise ValueError("gain %r cannot be encoded with shift >= %d" % (k, SHIFT_MIN))
+    return mantissa, shift
+
+
+def encode_row(rate_hz, both, baro, accel):
+    """One table row: rate, then (m, s) for both K00 K01 K10 K11 K20 K21, baro K0..2, accel K0..2."""
+    row = [rate_hz]
+    for value in list(both.reshape(-1)) + list(baro.reshape(-1)) + list(accel.reshape(-1)):
+        row.extend(to_fixed(float(value)))
+    return tuple(row)
+
+
+def _row_lines(row):
+    text = textwrap.wrap(repr(row) + ",", 96, break_on_hyphens=False)
+    return ["    " + text[0]] + ["     " + line for line in text[1:]]
+
+
+def decode(mantissa, shift):
+    return mantissa / 2.0**shift
+
+
+def render():
+    """Text of shared/gains_table.py."""
+    lines = [
+        '"""Kalman gains as integers. GENERATED by tools/gen_gains.py: do not edit by hand.',
+        "",
+        "Regenerate with ``python tools/gen_gains.py``; tests/test_gains.py checks this file is current.",
+        "",
+        "Row layout (one row per sample rate): RATE_HZ, then 12 gains as (mantissa, shift) pairs,",
+        "each gain K = mantissa / 2**shift (|mantissa| < 2**14, 14 <= shift <= 28):",
+        "",
+        "- combined filter (barometer + accelerometer), row-major K00 K01 K10 K11 K20 K21:",
+        "  state (altitude, velocity, acceleration) x measurement (altitude, acceleration);",
+        "- barometer only: K0 K1 K2;  accelerometer only: K0 K1 K2.",
+        "",
+        "Gains are dimensionless multipliers on innovations because altitude, velocity and",
+        "acceleration share one length unit in shared/kalman.py (1/16 mm) and the row's rate fixes T.",
+        "",
+        "PROJECT: steady-state gains; white-jerk process noise sigma_jerk = %g m/s^2.5," % SIGMA_JERK,
+        "sigma_alt = %g m, sigma_accel = %g m/s^2." % (SIGMA_ALT_M, SIGMA_ACCEL_MPS2),
+        "SEED: the seed's recursion (P = I, 20 iterations, R = diag(35.8229, 0.0012),",
+        "Q = diag(0, 0, 1), T = 0.05 s); only for 20 Hz.",
+        '"""',
+        "",
+        "PROJECT = (",
+    ]
+    for rate in RATES_HZ:
+        lines.extend(_row_lines(encode_row(rate, *project_gains(rate))))
+    lines.append(")")
+    lines.append("")
+    lines.append("SEED = (")
+    lines.extend(_row_lines(encode_row(20, *seed_family_gains())))
+    lines.append(")")
+    lines.append("")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--check", action="store_true", help="exit 1 if shared/gains_table.py is stale")
+    parser.add_argument("--print-seed", action="store_true", help="print the seed's K at T = 0.05 s")
+    args = parser.parse_args(argv)
+    if args.print_seed:
+        np.set_printoptions(precision=10)
+        print("seed K (T = 0.05 s, 20 iterations):")
+        print(seed_gain())
+        for rate in RATES_HZ:
+            both, baro, _ = project_gains(rate)
+            print("project K both at %d Hz:" % rate)
+            print(both)
+        return 0
+    text = render()
+    if args.check:
+        if not OUT.exists() or OUT.read_text() != text:
+            print("%s is stale: run python tools/gen_gains.py" % OUT)
+            return 1
+        print("%s is current" % OUT)
+        return 0
+    OUT.write_text(text)
+    print("wrote", OUT)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
