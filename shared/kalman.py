@@ -59,6 +59,8 @@ class Kalman:
         self.alt_q4 = 0
         self.vel_q4 = 0
         self.acc_q4 = 0
+        self.baro_weight_256 = 256  # barometer innovations are scaled by this / 256 (Mach de-weighting)
+        self.innov_alt_q4 = 0  # last barometric innovation, before weighting
 
     def reset(self, alt_mm, vel_mmps=0, acc_mmps2=0):
         """Set the state from values in mm, mm/s, mm/s^2."""
@@ -76,7 +78,7 @@ class Kalman:
 
     def correct(self, row, alt_mm, acc_mmps2):
         """Correct with a barometric altitude (mm) and a kinematic acceleration (mm/s^2)."""
-        eh = _clamp((_clamp(alt_mm, MEAS_LIMIT_MM) << 4) - self.alt_q4, _INNOV_LIMIT)
+        eh = self._baro_innovation(alt_mm)
         ea = _clamp((_clamp(acc_mmps2, MEAS_LIMIT_MM) << 4) - self.acc_q4, _INNOV_LIMIT)
         self.alt_q4 = _clamp(self.alt_q4 + _mul_gain(eh, row[1], row[2]) + _mul_gain(ea, row[3], row[4]),
                              ALT_LIMIT_Q4)
@@ -87,13 +89,19 @@ class Kalman:
 
     def correct_baro(self, row, alt_mm):
         """Correct with a barometric altitude (mm) only (no accelerometer reading)."""
-        e = _clamp((_clamp(alt_mm, MEAS_LIMIT_MM) << 4) - self.alt_q4, _INNOV_LIMIT)
-        self._add(e, row, 13)
+        self._add(self._baro_innovation(alt_mm), row, 13)
 
     def correct_accel(self, row, acc_mmps2):
         """Correct with a kinematic acceleration (mm/s^2) only (no barometer reading)."""
         e = _clamp((_clamp(acc_mmps2, MEAS_LIMIT_MM) << 4) - self.acc_q4, _INNOV_LIMIT)
         self._add(e, row, 19)
+
+    def _baro_innovation(self, alt_mm):
+        e = _clamp((_clamp(alt_mm, MEAS_LIMIT_MM) << 4) - self.alt_q4, _INNOV_LIMIT)
+        self.innov_alt_q4 = e
+        if self.baro_weight_256 < 256:
+            e = (e >> 8) * self.baro_weight_256
+        return e
 
     def _add(self, e, row, i):
         """Add K e for the single-sensor gains starting at row[i]."""
