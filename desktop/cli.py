@@ -11,6 +11,7 @@ import importlib
 # (command name, module defining it); the module's register() adds the sub-parser.
 COMMANDS = (
     ("montecarlo", "desktop.montecarlo"),
+    ("replay", "desktop.replay"),
 )
 
 

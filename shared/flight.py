@@ -1,0 +1,448 @@
+"""Deploy state machine: decides, sample by sample, when each pyro channel fires.
+
+Portable and allocation-free per sample (MicroPython and CPython). One ``FlightComputer`` per
+flight; call ``step()`` once per sample with integer readings:
+
+- ``dt_us``: microseconds since the previous sample (the first sample's value is ignored);
+- ``alt_mm``: barometric altitude in mm, any datum (``shared.altitude.pressure_to_alt_mm``);
+- ``accel_mmps2``: specific force along the rocket's axis, mm/s^2, positive towards the nose
+  (+9807 standing on the pad, about 0 in drag-free coast);
+- ``have``: which readings are fresh (``HAVE_BARO | HAVE_ACCEL``; a missing or stale reading is
+  never used: the filter predicts across it).
+
+After ``step()``: ``state``, ``events`` (bit mask of what happened at this sample),
+``pyro_drogue`` / ``pyro_main`` (output levels to drive now), ``agl_mm``, ``vel_mmps``.
+
+Safety (../shared/design-notes.md item 1): every firing path (apogee, apogee delay, backup timer,
+main) requires ``flight_proven``: a boost sustained for ``launch_accel_time_s`` *and* a climb of
+``proof_climb_m`` that the barometer holds for a second (barometer-only boards: that climb and
+``proof_speed_mps``; accelerometer-only boards: the boost, and that speed and climb integrated
+from it). Apogee
+further requires coast (after burnout, below the Mach lockout), an altitude above the proof climb,
+and an averaged deceleration beyond ``coast_decel_mps2``: coasting flight decelerates at about g,
+a knock or a pressure step on the pad does not.
+"""
+
+try:
+    from micropython import const
+except ImportError:
+    def const(x):
+        return x
+
+from shared.apogee import SeedRule, VelocityRule
+from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
+from shared.gains_table import PROJECT
+
+# States, in flight order.
+PAD = const(0)
+BOOST = const(1)
+FAST = const(2)  # coast above the Mach lockout: barometer de-weighted, no apogee
+COAST = const(3)
+DROGUE = const(4)
+MAIN = const(5)
+LANDED = const(6)
+STATE_NAMES = ("pad", "boost", "fast", "coast", "drogue", "main", "landed")
+
+# Event bits in ``events`` (several can happen on one sample).
+EV_LAUNCH = const(1)
+EV_BURNOUT = const(2)
+EV_APOGEE = const(4)
+EV_DROGUE = const(8)
+EV_MAIN = const(16)
+EV_LANDED = const(32)
+EVENT_NAMES = ("launch", "burnout", "apogee", "drogue", "main", "landed")
+
+# Pad calibration: quiet samples are averaged in blocks; the ground reference is the older of the
+# last two complete blocks, so the samples just before a launch (ignition, first motion) never
+# enter it. With no complete block yet (a short pad), all quiet samples so far are used.
+_CAL_BLOCK_MS = const(1000)
+_G_MMPS2 = const(9807)
+# The pad reading of the axis must be within 25% of 1 g: catches a wrong part or range setting,
+# an inverted mount, or a board lying down (../shared/design-notes.md item 4).
+_ONE_G_MIN = const(7355)
+_ONE_G_MAX = const(12259)
+# On the pad a barometric jump larger than this (mm) is a pressure step (av-bay sealed, a gust,
+# a glitch), not a climb: the filter and the ground reference re-base on the new level.
+_PAD_BARO_JUMP_MM = const(50000)
+_PROOF_HOLD_MS = const(1000)  # the proof climb must be held this long
+# Accelerometer-only boards cannot see a climb, so their boost must outlast any knock or drop.
+_ACCEL_ONLY_BOOST_MS = const(300)
+_DECEL_TAU_MS = const(500)  # time constant of the averaged acceleration used by the apogee gate
+_EMA_STEP_LIMIT = const(0xFFFFF)  # 2**20 - 1: keeps (x - avg) * dt_ms within 31 bits (dt_ms <= 1000)
+_INNOV_TAU_MS = const(300)  # time constant of the averaged barometric innovation
+_DIVERGED_MM = const(10000)  # averaged innovation beyond which coast follows the barometer alone
+# Innovation gates after burnout (shared/detector.py): coasting flight changes its acceleration
+# smoothly, so a reading this far from the estimate is an ejection charge, a shock or a pressure
+# transient. 50 m is eight times the barometer noise the gains assume; 30 m/s^2 is three g.
+_GATE_ALT_MM = const(50000)
+_LATE_COAST_MMPS = const(30000)  # below this vertical speed in coast, acceleration = -g
+_GATE_ACC_MMPS2 = const(30000)
+
+# Error flags in ``errors``.
+ERR_ORIENTATION = const(1)  # pad accelerometer reading is not about +1 g
+ERR_ACCEL_CLIPPED = const(2)  # at least one reading at the accelerometer's full scale
+ERR_PAD_BARO_STEP = const(4)  # the barometer jumped on the pad (re-based)
+
+
+def _ema(avg, x, dt_ms, tau_ms):
+    """Exponential average with time constant tau_ms, in 31 bits: the step is clamped to 2**20."""
+    if dt_ms > tau_ms:
+        dt_ms = tau_ms
+    diff = x - avg
+    if diff > _EMA_STEP_LIMIT:
+        diff = _EMA_STEP_LIMIT
+    elif diff < -_EMA_STEP_LIMIT:
+        diff = -_EMA_STEP_LIMIT
+    return avg + diff * dt_ms // tau_ms
+
+
+class FlightComputer:
+    """The flight state machine over the Kalman detector. See the module docstring."""
+
+    def __init__(self, config, ground_alt_mm=None, table=PROJECT):
+        self.cfg = config
+        rule = SeedRule() if config.seed_rule else VelocityRule()
+        self.det = Detector(table, rule)
+        self.kf = self.det.kf
+        self.state = PAD
+        self.events = 0
+        self.errors = 0
+        self.started = False
+        self.now_ms = 0
+        self._us_rem = 0
+        # pad calibration
+        self.ground_fixed = ground_alt_mm is not None
+        self.ground_alt_mm = ground_alt_mm if ground_alt_mm is not None else 0
+        self.one_g_mmps2 = _G_MMPS2
+        self.cal_samples = 0  # quiet pad samples that went into the current reference
+        self._blk_ref_mm = 0
+        self._blk_alt = 0
+        self._blk_acc = 0
+        self._blk_n = 0
+        self._blk_start_ms = 0
+        self._prev_alt = 0
+        self._prev_acc = 0
+        self._prev_n = 0
+        self._all_alt = 0
+        self._all_acc = 0
+        self._all_n = 0
+        # flight
+        self.boost_ms = 0  # how long the boost acceleration has been sustained
+        self.boost_max_ms = 0  # the longest such stretch
+        self.launched = False
+        self.flight_proven = False
+        self.climb_ms = 0  # how long the filtered altitude has stayed above proof_climb_m
+        self.launch_ms = 0
+        self.burnout_ms = 0
+        self.max_agl_mm = 0
+        self.max_vel_mmps = 0
+        self.acc_avg_q4 = 0
+        self.innov_avg_q4 = 0
+        self.diverged = False
+        self.apogee_ms = -1
+        self.drogue_due_ms = -1
+        self.drogue_fired_ms = -1
+        self.main_fired_ms = -1
+        self.pyro_drogue = False
+        self.pyro_main = False
+        self._drogue_off_ms = 0
+        self._main_off_ms = 0
+        self._land_start_ms = 0
+        self._land_min_mm = 0
+        self._land_max_mm = 0
+        self.agl_mm = 0
+        self.baro_agl_mm = 0  # last fresh barometric reading above the pad (unfiltered)
+        self.vel_mmps = 0
+        self.accel_clipped = 0  # count of clipped accelerometer readings
+
+    def step(self, dt_us, alt_mm, accel_mmps2, have):
+        """Process one sample; see the module docstring for units and outputs."""
+        cfg = self.cfg
+        self.events = 0
+        if not cfg.has_baro:
+            have &= HAVE_ACCEL
+        if not cfg.has_accel:
+            have &= HAVE_BARO
+        if have & HAVE_ACCEL and cfg.accel_limit_mmps2 and (
+                accel_mmps2 >= cfg.accel_limit_mmps2 or accel_mmps2 <= -cfg.accel_limit_mmps2):
+            have &= HAVE_BARO  # a clipped reading under-reads: use the barometer alone
+            self.accel_clipped += 1
+            self.errors |= ERR_ACCEL_CLIPPED
+            clipped = True
+        else:
+            clipped = False
+        if not self.started:
+            self._start(alt_mm, accel_mmps2, have)
+            dt_us = 0
+        else:
+            total = self._us_rem + dt_us
+            self.now_ms += total // 1000
+            self._us_rem = total % 1000
+        state = self.state
+        if state == PAD:
+            self._pad_update(alt_mm, accel_mmps2, have)
+        acc_kin = accel_mmps2 - self.one_g_mmps2
+        kf = self.kf
+        self._set_baro_weight()
+        if state >= FAST:
+            self.det.gate_alt_mm = _GATE_ALT_MM
+            self.det.gate_acc_mmps2 = _GATE_ACC_MMPS2
+        self._set_model(state)
+        if state >= DROGUE or self.diverged:
+            have &= HAVE_BARO  # under a parachute the orientation is unknown; see _set_model
+        if dt_us:
+            enabled = self._apogee_enabled()
+            apogee = self.det.step(dt_us, alt_mm, acc_kin, have, enabled)
+        else:
+            apogee = False
+        self.agl_mm = (kf.alt_q4 >> 4) - self.ground_alt_mm
+        self.vel_mmps = kf.vel_q4 >> 4
+        if have & HAVE_BARO:
+            self.baro_agl_mm = alt_mm - self.ground_alt_mm
+        self._update_averages(dt_us)
+        self._update_boost(dt_us, acc_kin, have, clipped)
+        if state == PAD:
+            self._check_launch()
+        elif state <= COAST:
+            self._ascent(apogee)
+        else:
+            self._descent()
+        self._check_proof(dt_us // 1000)
+        self._pyro()
+
+    def _start(self, alt_mm, accel_mmps2, have):
+        self.started = True
+        self._blk_ref_mm = alt_mm if have & HAVE_BARO else 0
+        self._blk_start_ms = 0
+        if not self.ground_fixed:
+            self.ground_alt_mm = self._blk_ref_mm
+        self.det.start(self._blk_ref_mm, 0)
+
+    def _pad_update(self, alt_mm, accel_mmps2, have):
+        """Average quiet pad samples into the ground references; re-base on a pressure step."""
+        if have & HAVE_BARO:
+            jump = alt_mm - (self.kf.alt_q4 >> 4)
+            if jump > _PAD_BARO_JUMP_MM or jump < -_PAD_BARO_JUMP_MM:
+                self.errors |= ERR_PAD_BARO_STEP
+                self.kf.reset(alt_mm, 0, 0)
+                self._blk_ref_mm = alt_mm
+                self._blk_alt = self._blk_acc = self._blk_n = 0
+                self._prev_n = self._all_n = 0
+                self._all_alt = self._all_acc = 0
+                if not self.ground_fixed:
+                    self.ground_alt_mm = alt_mm
+                return
+        if have & HAVE_ACCEL:
+            limit = self.cfg.launch_accel_mmps2
+            quiet = -limit < accel_mmps2 - self.one_g_mmps2 < limit
+            acc = accel_mmps2
+        else:
+            quiet = True
+            acc = _G_MMPS2
+        if not quiet:
+            return
+        d_alt = alt_mm - self._blk_ref_mm if have & HAVE_BARO else 0
+        self._blk_alt += d_alt
+        self._blk_acc += acc
+        self._blk_n += 1
+        if self._prev_n == 0:
+            self._all_alt += d_alt
+            self._all_acc += acc
+            self._all_n += 1
+        if self.now_ms - self._blk_start_ms >= _CAL_BLOCK_MS:
+            self._check_orientation(self._blk_acc // self._blk_n)
+            if self._prev_n:
+                self._apply_calibration(self._prev_alt, self._prev_acc, self._prev_n)
+            self._prev_alt = self._blk_alt
+            self._prev_acc = self._blk_acc
+            self._prev_n = self._blk_n
+            self._blk_alt = self._blk_acc = self._blk_n = 0
+            self._blk_start_ms = self.now_ms
+        elif self._prev_n == 0:
+            self._apply_calibration(self._all_alt, self._all_acc, self._all_n)
+
+    def _check_orientation(self, one_g):
+        """A whole block (1 s) of quiet pad readings must average 1 g +-25% on the axis: catches a
+        wrong part or range setting, an inverted mount, a board lying down. Flags ERR_ORIENTATION,
+        which forbids launch, until a block passes."""
+        if not self.cfg.has_accel:
+            return
+        if _ONE_G_MIN <= one_g <= _ONE_G_MAX:
+            self.errors &= ~ERR_ORIENTATION
+        else:
+            self.errors |= ERR_ORIENTATION
+
+    def _apply_calibration(self, alt_sum, acc_sum, n):
+        """Take averages as the ground references. Sums are of altitude offsets from _blk_ref_mm
+        (metres) and of ~1 g readings over a few hundred samples: well inside 31 bits. An
+        accelerometer average outside 1 g +-25% is not used (a short pad may hold the first
+        motion): the nominal 1 g stays."""
+        if not self.ground_fixed:
+            self.ground_alt_mm = self._blk_ref_mm + alt_sum // n
+        one_g = acc_sum // n
+        if self.cfg.has_accel and _ONE_G_MIN <= one_g <= _ONE_G_MAX:
+            self.one_g_mmps2 = one_g
+        self.cal_samples = n
+
+    def _set_baro_weight(self):
+        """AltOS-style Mach de-weighting: full weight up to the lockout speed, then a ramp down to
+        mach_baro_weight_pct at 1.32 x lockout; ascent only."""
+        cfg = self.cfg
+        kf = self.kf
+        if self.state >= DROGUE:
+            kf.baro_weight_256 = 256
+            return
+        over = (kf.vel_q4 >> 4) - cfg.mach_lockout_mmps
+        if over <= 0:
+            kf.baro_weight_256 = 256
+            return
+        span = cfg.mach_lockout_mmps * 32 // 100
+        drop = 256 - cfg.mach_baro_weight_256
+        if over >= span:
+            kf.baro_weight_256 = cfg.mach_baro_weight_256
+        else:
+            kf.baro_weight_256 = 256 - drop * (over >> 4) // (span >> 4)
+
+    def _set_model(self, state):
+        """Coast estimates the accelerometer's bias; below LATE_COAST speed the acceleration is
+        taken as -g (tools/gen_gains.py explains the physics and the numbers).
+
+        In coast, a barometric innovation that averages more than _DIVERGED_MM means the model
+        no longer describes the flight (a motor failure, a premature ejection, a tumbling
+        rocket whose accelerometer reads thrust-like shocks): the filter then follows the
+        barometer alone, which it does within a fraction of a second, until it agrees again."""
+        avg = self.innov_avg_q4 >> 4
+        self.diverged = state == COAST and (avg > _DIVERGED_MM or avg < -_DIVERGED_MM)
+        if self.diverged:
+            self.det.model = MODEL_PLAIN
+        elif state == FAST or state == COAST:
+            vel = self.kf.vel_q4 >> 4
+            if -_LATE_COAST_MMPS < vel < _LATE_COAST_MMPS and self.cfg.has_baro:
+                self.det.model = MODEL_GRAVITY
+            else:
+                self.det.model = MODEL_BIAS
+        else:
+            self.det.model = MODEL_PLAIN
+
+    def _apogee_enabled(self):
+        cfg = self.cfg
+        return (self.state == COAST and self.flight_proven and self.drogue_fired_ms < 0
+                and self.apogee_ms < 0
+                and self.now_ms - self.launch_ms >= cfg.apogee_lockout_ms
+                and self.agl_mm >= cfg.proof_climb_mm
+                and -self.acc_avg_q4 >= cfg.coast_decel_mmps2 << 4)
+
+    def _update_averages(self, dt_us):
+        self.acc_avg_q4 = _ema(self.acc_avg_q4, self.kf.acc_q4, dt_us // 1000, _DECEL_TAU_MS)
+        self.innov_avg_q4 = _ema(self.innov_avg_q4, self.kf.innov_alt_q4, dt_us // 1000, _INNOV_TAU_MS)
+
+    def _update_boost(self, dt_us, acc_kin, have, clipped):
+        if self.state > BOOST:
+            return
+        if (have & HAVE_ACCEL and acc_kin > self.cfg.launch_accel_mmps2) or clipped:
+            self.boost_ms += dt_us // 1000
+            if self.boost_ms > self.boost_max_ms:
+                self.boost_max_ms = self.boost_ms
+        else:
+            self.boost_ms = 0
+
+    def _check_launch(self):
+        cfg = self.cfg
+        if self.errors & ERR_ORIENTATION:
+            return  # refuse to fly a board that is not upright with a sane accelerometer
+        if cfg.has_accel:
+            launch = self.boost_ms >= cfg.launch_accel_ms
+        else:
+            launch = self.agl_mm >= cfg.proof_climb_mm and self.vel_mmps >= cfg.proof_speed_mmps
+        if launch:
+            self.launched = True
+            self.launch_ms = self.now_ms
+            self.state = BOOST
+            self.events |= EV_LAUNCH
+
+    def _check_proof(self, dt_ms):
+        """flight_proven, once true, stays true (every firing path requires it)."""
+        if self.agl_mm > self.max_agl_mm:
+            self.max_agl_mm = self.agl_mm
+        if self.vel_mmps > self.max_vel_mmps:
+            self.max_vel_mmps = self.vel_mmps
+        if self.flight_proven or not self.launched:
+            return
+        cfg = self.cfg
+        # the barometer's own reading, not the filter (a stuck accelerometer drags the filter up)
+        climb_mm = self.baro_agl_mm if cfg.has_baro else self.agl_mm
+        if climb_mm >= cfg.proof_climb_mm:
+            self.climb_ms += dt_ms
+        else:
+            self.climb_ms = 0
+        # a climb that lasts: a pressure transient (ejection, venting, a knock) decays in tenths
+        # of a second, a rocket stays above a few tens of metres for seconds. Without one of the
+        # sensors the climb must also have been fast (the barometer alone cannot tell a boost;
+        # the accelerometer alone measures the climb only by integration).
+        proven = self.climb_ms >= _PROOF_HOLD_MS
+        if not (cfg.has_baro and cfg.has_accel):
+            proven = proven and self.max_vel_mmps >= cfg.proof_speed_mmps
+        if not cfg.has_baro:
+            proven = proven and self.boost_max_ms >= _ACCEL_ONLY_BOOST_MS
+        self.flight_proven = proven
+
+    def _ascent(self, apogee):
+        cfg = self.cfg
+        kf = self.kf
+        fast = kf.vel_q4 >> 4 > cfg.mach_lockout_mmps
+        if self.state == BOOST:
+            if kf.acc_q4 < -2500 * 16 or self.now_ms - self.launch_ms > cfg.max_boost_ms:
+                self.burnout_ms = self.now_ms
+                self.events |= EV_BURNOUT
+                self.state = FAST if fast else COAST
+        elif self.state == FAST and not fast:
+            self.state = COAST
+        elif self.state == COAST and fast:
+            self.state = FAST
+        if apogee:
+            self.apogee_ms = self.now_ms
+            self.events |= EV_APOGEE
+            self.drogue_due_ms = self.now_ms + cfg.apogee_delay_ms
+        if self.flight_proven and self.drogue_fired_ms < 0:
+            if self.drogue_due_ms >= 0 and self.now_ms >= self.drogue_due_ms:
+                self._fire_drogue()
+            elif cfg.backup_drogue_ms and self.now_ms - self.launch_ms >= cfg.backup_drogue_ms:
+                self._fire_drogue()
+
+    def _fire_drogue(self):
+        self.drogue_fired_ms = self.now_ms
+        self._drogue_off_ms = self.now_ms + self.cfg.pulse_ms
+        self.pyro_drogue = True
+        self.events |= EV_DROGUE
+        self.state = DROGUE
+        self._land_start_ms = self.now_ms
+        self._land_min_mm = self._land_max_mm = self.agl_mm
+
+    def _descent(self):
+        cfg = self.cfg
+        if (self.state == DROGUE and self.flight_proven and self.agl_mm <= cfg.main_deploy_mm
+                and self.vel_mmps < 0 and self.now_ms - self.drogue_fired_ms >= cfg.main_guard_ms):
+            self.main_fired_ms = self.now_ms
+            self._main_off_ms = self.now_ms + cfg.pulse_ms
+            self.pyro_main = True
+            self.events |= EV_MAIN
+            self.state = MAIN
+        if self.state == LANDED:
+            return
+        agl = self.agl_mm
+        if agl < self._land_min_mm:
+            self._land_min_mm = agl
+        if agl > self._land_max_mm:
+            self._land_max_mm = agl
+        if self.now_ms - self._land_start_ms >= cfg.landed_window_ms:
+            if (self.state == MAIN and self._land_max_mm - self._land_min_mm <= cfg.landed_alt_mm):
+                self.state = LANDED
+                self.events |= EV_LANDED
+            self._land_start_ms = self.now_ms
+            self._land_min_mm = self._land_max_mm = agl
+
+    def _pyro(self):
+        if self.pyro_drogue and self.now_ms >= self._drogue_off_ms:
+            self.pyro_drogue = False
+        if self.pyro_main and self.now_ms >= self._main_off_ms:
+            self.pyro_main = False

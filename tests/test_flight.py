@@ -1,0 +1,230 @@
+"""The deploy state machine on synthetic flights and on the pad scenarios that must never fire.
+
+Every pad scenario runs with every rule and timer enabled (design-notes item 1), in each sensor
+mode: barometer + accelerometer, barometer only, accelerometer only.
+"""
+
+import numpy as np
+import pytest
+
+from shared.config import load_config
+from shared.detector import HAVE_ACCEL, HAVE_BARO, HAVE_BOTH
+from shared.flight import (
+    COAST,
+    DROGUE,
+    ERR_ORIENTATION,
+    EV_APOGEE,
+    EV_DROGUE,
+    EV_LANDED,
+    EV_LAUNCH,
+    EV_MAIN,
+    FAST,
+    LANDED,
+    PAD,
+    FlightComputer,
+)
+from tools.synthetic_flight import make_flight
+
+G = 9807
+ALL_ON = {"backup_drogue_s": 20, "apogee_delay_s": 1, "apogee_lockout_s": 0, "main_guard_s": 1}
+
+
+def run(dts, alts, accs, have, **config):
+    """Step a FlightComputer over integer arrays; returns (fc, events list, pyro-on samples)."""
+    fc = FlightComputer(load_config(config))
+    events, pyro = [], []
+    for i in range(len(dts)):
+        fc.step(int(dts[i]), int(alts[i]), int(accs[i]), int(have[i]))
+        if fc.events:
+            events.append((i, fc.events))
+        if fc.pyro_drogue or fc.pyro_main:
+            pyro.append(i)
+    return fc, events, pyro
+
+
+def pad(seconds, rate=50, seed=0, alt0_mm=300000, drift_mm=0):
+    """A quiet pad: barometer noise 1 m, accelerometer noise 0.3 m/s^2, slow weather drift."""
+    rng = np.random.default_rng(seed)
+    n = int(seconds * rate)
+    dts = np.full(n, 1000000 // rate)
+    alts = alt0_mm + np.linspace(0, drift_mm, n) + rng.normal(0, 1000, n)
+    accs = G + rng.normal(0, 300, n)
+    return dts, alts.astype(np.int64), accs.astype(np.int64), np.full(n, HAVE_BOTH)
+
+
+MODES = [("both", HAVE_BOTH), ("baro", HAVE_BARO), ("accel", HAVE_ACCEL)]
+
+
+def _modes_and_rules():
+    for sensors, _ in MODES:
+        for rule in ("velocity", "seed"):
+            if sensors == "accel" and rule == "seed":
+                continue
+            yield sensors, rule
+
+
+def assert_never_fires(dts, alts, accs, have):
+    for sensors, rule in _modes_and_rules():
+        fc, events, pyro = run(dts, alts, accs, have, sensors=sensors, apogee_rule=rule, **ALL_ON)
+        fired = [e for _, e in events if e & (EV_APOGEE | EV_DROGUE | EV_MAIN)]
+        assert not fired and not pyro, (sensors, rule, events)
+        assert fc.state in (PAD, COAST, DROGUE) or fc.state < DROGUE
+
+
+def test_long_pad_with_weather_drift_never_fires():
+    # 30 minutes at 20 Hz; the pressure drifts by 30 m of altitude (a front passing)
+    dts, alts, accs, have = pad(1800, rate=20, seed=1, drift_mm=30000)
+    assert_never_fires(dts, alts, accs, have)
+    fc, _, _ = run(dts, alts, accs, have)
+    assert abs(fc.ground_alt_mm - (300000 + 30000)) < 1500  # ground reference follows the weather
+
+
+@pytest.mark.parametrize("knock_g", [5, 10, 20])
+def test_knocks_never_fire(knock_g):
+    dts, alts, accs, have = pad(120, seed=2)
+    for start in range(500, len(dts) - 100, 400):  # a 50 ms knock every 8 s, with a pressure blip
+        accs[start:start + 3] += knock_g * G
+        alts[start:start + 2] += 20000
+    assert_never_fires(dts, alts, accs, have)
+
+
+@pytest.mark.parametrize("step_pa", [-2000, 2000])
+def test_pressure_steps_never_fire(step_pa):
+    dts, alts, accs, have = pad(120, seed=3)
+    step_mm = -step_pa * 84  # ~8.4 m per hPa near sea level
+    alts[3000:] += step_mm
+    alts[4500:4600] -= step_mm  # and a transient back
+    assert_never_fires(dts, alts, accs, have)
+
+
+def test_knock_with_pressure_step_never_fires():
+    # the AltOS failure: a knock on the pad plus a pressure transient gave "apogee" at 47 m
+    dts, alts, accs, have = pad(120, seed=4)
+    accs[2000:2008] += 15 * G  # 160 ms of 15 g: long enough to count as a boost
+    alts[2000:] += 60000  # and the barometer jumps 60 m and stays
+    alts[2200:] -= 0
+    accs[2010:] = 0  # then the board lies on its side: the axis reads 0 g, like free fall
+    assert_never_fires(dts, alts, accs, have)
+
+
+def test_stuck_and_garbage_sensors_never_fire():
+    dts, alts, accs, have = pad(60, seed=5)
+    stuck_accs = accs.copy()
+    stuck_accs[1000:] = accs[1000]  # frozen at its last reading
+    assert_never_fires(dts, alts, stuck_accs, have)
+    stuck_accs[1000:] = 6 * G  # stuck at 6 g: looks like a sustained boost; the barometer vetoes it
+    for sensors in ("both", "baro"):
+        _, events, pyro = run(dts, alts, stuck_accs, have, sensors=sensors, **ALL_ON)
+        assert not pyro and not [e for _, e in events if e & (EV_APOGEE | EV_DROGUE | EV_MAIN)]
+    stuck_alts = alts.copy()
+    stuck_alts[1000:] = alts[1000]
+    assert_never_fires(dts, stuck_alts, accs, have)
+    rng = np.random.default_rng(6)
+    garbage_alts = rng.integers(-1000000, 9000000, len(dts))
+    garbage_accs = rng.integers(-200 * G, 200 * G, len(dts))
+    assert_never_fires(dts, garbage_alts, garbage_accs, have)
+    dropout = have.copy()
+    dropout[1000:2000] = 0  # no readings at all for 20 s
+    assert_never_fires(dts, alts, accs, dropout)
+
+
+def test_handling_and_carrying_up_a_hill_never_fire():
+    dts, alts, accs, have = pad(300, seed=7)
+    alts += np.linspace(0, 40000, len(dts)).astype(np.int64)  # walked 40 m uphill in 5 minutes
+    rng = np.random.default_rng(8)
+    accs += (rng.normal(0, 0.5 * G, len(dts))).astype(np.int64)  # walking bumps
+    accs[5000:5025] += G // 2  # lifted onto the rail: 0.5 g for 0.5 s
+    assert_never_fires(dts, alts, accs, have)
+
+
+@pytest.mark.parametrize("rest_g", [-1, 0, 2])
+def test_board_not_upright_or_wrong_range_refuses_launch(rest_g):
+    # upside down (-1 g), lying (0 g), or a wrong range setting (2 g at rest): a whole flight
+    # follows 2 s of pad; the board never launches, never fires
+    dts, alts, accs, truth, _ = _flight(rate=50, seed=3)
+    accs = accs + (rest_g - 1) * G
+    fc, events, pyro = run(dts, alts, accs, np.full(len(dts), HAVE_BOTH))
+    assert fc.errors & ERR_ORIENTATION and not pyro and not events
+
+
+def _flight(rate=100, seed=1, **kw):
+    dts, alts, accs, truth, apogee = make_flight(rate_hz=rate, seed=seed, **kw)
+    accs = np.array(accs) + G  # make_flight gives kinematic acceleration; the board reads specific force
+    return np.array(dts), np.array(alts), accs, np.array(truth), apogee
+
+
+@pytest.mark.parametrize("sensors,rule", list(_modes_and_rules()))
+def test_synthetic_flight_drogue_at_apogee_main_at_altitude(sensors, rule):
+    have = dict(MODES)[sensors]
+    dts, alts, accs, truth, apogee = _flight(after_apogee_s=200, alt_noise_mm=800, acc_noise_mmps2=200)
+    fc, events, pyro = run(dts, alts, accs, np.full(len(dts), have), sensors=sensors, apogee_rule=rule)
+    by_bit = {}
+    for i, e in events:
+        for bit in (EV_LAUNCH, EV_APOGEE, EV_DROGUE, EV_MAIN, EV_LANDED):
+            if e & bit:
+                by_bit.setdefault(bit, i)
+    launch_i = 200  # make_flight: 2 s pad at 100 Hz
+    # the accelerometer sees the boost in 0.1 s; the barometer alone needs the proof climb (30 m)
+    assert launch_i <= by_bit[EV_LAUNCH] <= launch_i + (100 if sensors == "baro" else 20)
+    tolerance = 60 if sensors == "accel" else 30  # samples: 0.6 s accel-only, 0.3 s otherwise
+    assert abs(by_bit[EV_DROGUE] - apogee) <= tolerance, (by_bit[EV_DROGUE], apogee)
+    if sensors != "accel":
+        main_truth_mm = truth[by_bit[EV_MAIN]] - 300000
+        assert abs(main_truth_mm - 250000) <= 10000  # within 10 m of the configured altitude
+        assert by_bit.get(EV_LANDED) is None or fc.state == LANDED
+    assert min(pyro) >= by_bit[EV_DROGUE]  # nothing is on before the drogue decision
+
+
+def test_pulses_are_exactly_the_configured_length_and_fire_once():
+    dts, alts, accs, truth, apogee = _flight(after_apogee_s=200)
+    fc = FlightComputer(load_config({"pulse_ms": 300}))
+    drogue_on, main_on = [], []
+    for i in range(len(dts)):
+        fc.step(int(dts[i]), int(alts[i]), int(accs[i]), HAVE_BOTH)
+        if fc.pyro_drogue:
+            drogue_on.append(i)
+        if fc.pyro_main:
+            main_on.append(i)
+    for on in (drogue_on, main_on):
+        assert len(on) == 30 and on == list(range(on[0], on[0] + 30))  # 300 ms at 100 Hz, once
+    assert main_on[0] - drogue_on[0] >= 200  # main guard (2 s default)
+
+
+def test_apogee_delay_and_no_fire_through_mach():
+    # 100 g for 3.5 s: 3.4 km/s is beyond the Mach lockout; the barometer lies by a transonic
+    # error; no apogee while fast, drogue 2 s after apogee
+    dts, alts, accs, truth, apogee = _flight(boost_mmps2=90000, burn_ms=4000, after_apogee_s=5,
+                                             ground_mm=0, alt_noise_mm=1000)
+    speed = np.concatenate([[0], np.diff(truth) * 100 / 1000])  # m/s
+    transonic = (speed > 300) & (speed < 420)
+    alts = alts - (transonic * 150000).astype(np.int64)  # 150 m low while transonic
+    fc = FlightComputer(load_config({"apogee_delay_s": 2}))
+    fast_seen = False
+    for i in range(len(dts)):
+        fc.step(int(dts[i]), int(alts[i]), int(accs[i]), HAVE_BOTH)
+        fast_seen |= fc.state == FAST
+        if fc.events & EV_APOGEE:
+            assert abs(i - apogee) <= 40 and speed[i] < 50
+        if fc.events & EV_DROGUE:
+            assert abs(i - apogee - 200) <= 40
+    assert fast_seen and fc.drogue_fired_ms > 0
+
+
+def test_accelerometer_glitch_in_coast_does_not_fire_early():
+    dts, alts, accs, truth, apogee = _flight(after_apogee_s=5)
+    burnout = 200 + 200
+    accs[burnout + 300:burnout + 305] = -50 * G  # a shock: -50 g for 50 ms
+    accs[burnout + 600:burnout + 602] = 80 * G
+    fc, events, pyro = run(dts, alts, accs, np.full(len(dts), HAVE_BOTH))
+    drogue = [i for i, e in events if e & EV_DROGUE]
+    assert drogue and abs(drogue[0] - apogee) <= 30
+
+
+def test_barometer_dies_in_coast_backup_timer_fires():
+    dts, alts, accs, truth, apogee = _flight(after_apogee_s=20)
+    have = np.full(len(dts), HAVE_BOTH)
+    have[600:] = HAVE_ACCEL  # barometer dead 2 s after burnout
+    fc, events, pyro = run(dts, alts, accs, have, backup_drogue_s=26)
+    drogue = [i for i, e in events if e & EV_DROGUE]
+    assert drogue and drogue[0] >= 400  # never before burnout; apogee or the backup timer
+    assert drogue[0] <= 200 + 2600 + 1
