@@ -23,6 +23,8 @@ and an averaged deceleration beyond ``coast_decel_mps2``: coasting flight decele
 a knock or a pressure step on the pad does not.
 """
 
+import struct
+
 try:
     from micropython import const
 except ImportError:
@@ -77,6 +79,11 @@ _DIVERGED_MM = const(10000)  # averaged innovation beyond which coast follows th
 _GATE_ALT_MM = const(50000)
 _LATE_COAST_MMPS = const(30000)  # below this vertical speed in coast, acceleration = -g
 _GATE_ACC_MMPS2 = const(30000)
+
+_RECORD_FORMAT = "<BBBiiiiiiiiiiiiiiiii"
+_RECORD_VERSION = const(1)
+STATE_RECORD_SIZE = const(71)  # struct.calcsize(_RECORD_FORMAT)
+_RESUME_SETTLE_MS = const(1000)
 
 # Error flags in ``errors``.
 ERR_ORIENTATION = const(1)  # pad accelerometer reading is not about +1 g
@@ -154,6 +161,8 @@ class FlightComputer:
         self.baro_agl_mm = 0  # last fresh barometric reading above the pad (unfiltered)
         self.vel_mmps = 0
         self.accel_clipped = 0  # count of clipped accelerometer readings
+        self.settle_until_ms = 0  # after a resume: no apogee decision before this
+        self._resume_pending = False
 
     def step(self, dt_us, alt_mm, accel_mmps2, have):
         """Process one sample; see the module docstring for units and outputs."""
@@ -184,9 +193,16 @@ class FlightComputer:
         acc_kin = accel_mmps2 - self.one_g_mmps2
         kf = self.kf
         self._set_baro_weight()
-        if state >= FAST:
+        if self._resume_pending and have & HAVE_BARO:
+            self._resume_pending = False
+            kf.alt_q4 = alt_mm << 4
+        settling = self.now_ms < self.settle_until_ms
+        if state >= FAST and not settling:
             self.det.gate_alt_mm = _GATE_ALT_MM
             self.det.gate_acc_mmps2 = _GATE_ACC_MMPS2
+        else:
+            self.det.gate_alt_mm = 0
+            self.det.gate_acc_mmps2 = 0
         self._set_model(state)
         if state >= DROGUE or self.diverged:
             have &= HAVE_BARO  # under a parachute the orientation is unknown; see _set_model
@@ -327,7 +343,7 @@ class FlightComputer:
     def _apogee_enabled(self):
         cfg = self.cfg
         return (self.state == COAST and self.flight_proven and self.drogue_fired_ms < 0
-                and self.apogee_ms < 0
+                and self.apogee_ms < 0 and self.now_ms >= self.settle_until_ms
                 and self.now_ms - self.launch_ms >= cfg.apogee_lockout_ms
                 and self.agl_mm >= cfg.proof_climb_mm
                 and -self.acc_avg_q4 >= cfg.coast_decel_mmps2 << 4)
@@ -446,3 +462,48 @@ class FlightComputer:
             self.pyro_drogue = False
         if self.pyro_main and self.now_ms >= self._main_off_ms:
             self.pyro_main = False
+
+    # Resume after a reset in flight (design-notes item 3). The device writes this record to
+    # memory that survives a reset (RTC memory, or a small flash record) at launch and at every
+    # event; on boot it restores it and carries on instead of calibrating "ground" at altitude.
+    # Fields: version, state, flags (launched, proven, fired drogue, fired main), now_ms,
+    # launch_ms, burnout_ms, apogee_ms, drogue_due_ms, drogue_fired_ms, main_fired_ms,
+    # ground_alt_mm, one_g_mmps2, max_agl_mm, alt_q4, vel_q4, acc_q4, bias_q4, errors,
+    # acc_avg_q4, max_vel_mmps. The device saves it at every event and every 0.1 s in flight.
+    # A reset costs an unknown time, so after a restore the filter re-converges for
+    # _RESUME_SETTLE_MS (altitude taken from the first barometric reading, no gates, no apogee
+    # decision; the backup timer and main still work) before apogee may be declared.
+
+    def save_state(self, buf):
+        """Pack the flight's state into ``buf`` (bytearray of STATE_RECORD_SIZE); no allocation."""
+        kf = self.kf
+        flags = (self.launched | self.flight_proven << 1 | (self.drogue_fired_ms >= 0) << 2
+                 | (self.main_fired_ms >= 0) << 3)
+        struct.pack_into(_RECORD_FORMAT, buf, 0, _RECORD_VERSION, self.state, flags, self.now_ms,
+                         self.launch_ms, self.burnout_ms, self.apogee_ms, self.drogue_due_ms,
+                         self.drogue_fired_ms, self.main_fired_ms, self.ground_alt_mm,
+                         self.one_g_mmps2, self.max_agl_mm, kf.alt_q4, kf.vel_q4, kf.acc_q4,
+                         kf.bias_q4, self.errors, self.acc_avg_q4, self.max_vel_mmps)
+
+    def restore_state(self, buf):
+        """Resume from a record written by ``save_state``. Returns False (and changes nothing) if
+        the record is not a valid in-flight record of this version."""
+        fields = struct.unpack_from(_RECORD_FORMAT, buf, 0)
+        if fields[0] != _RECORD_VERSION or not PAD < fields[1] <= LANDED:
+            return False
+        (_, self.state, flags, self.now_ms, self.launch_ms, self.burnout_ms, self.apogee_ms,
+         self.drogue_due_ms, self.drogue_fired_ms, self.main_fired_ms, self.ground_alt_mm,
+         self.one_g_mmps2, self.max_agl_mm, alt_q4, vel_q4, acc_q4, bias_q4, self.errors,
+         self.acc_avg_q4, self.max_vel_mmps) = fields
+        self.launched = bool(flags & 1)
+        self.flight_proven = bool(flags & 2)
+        self.ground_fixed = True
+        self.started = True
+        kf = self.kf
+        kf.alt_q4, kf.vel_q4, kf.acc_q4, kf.bias_q4 = alt_q4, vel_q4, acc_q4, bias_q4
+        self.det.dt_us = -1
+        self.settle_until_ms = self.now_ms + _RESUME_SETTLE_MS
+        self._resume_pending = True
+        self._land_start_ms = self.now_ms
+        self._land_min_mm = self._land_max_mm = (alt_q4 >> 4) - self.ground_alt_mm
+        return True

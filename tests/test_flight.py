@@ -228,3 +228,44 @@ def test_barometer_dies_in_coast_backup_timer_fires():
     drogue = [i for i, e in events if e & EV_DROGUE]
     assert drogue and drogue[0] >= 400  # never before burnout; apogee or the backup timer
     assert drogue[0] <= 200 + 2600 + 1
+
+
+@pytest.mark.parametrize("reset_at", [300, 1500, 2300, 2440, 3000])  # boost .. descent
+def test_resume_after_reset_in_flight(reset_at):
+    from shared.flight import STATE_RECORD_SIZE
+
+    dts, alts, accs, truth, apogee = _flight(after_apogee_s=200)
+    fc = FlightComputer(load_config())
+    record = bytearray(STATE_RECORD_SIZE)
+    fired = {"drogue": [], "main": []}
+    outage = range(reset_at, reset_at + 100)  # a brown-out: 1 s without the board
+    for i in range(len(dts)):
+        if i in outage:
+            continue
+        if i == outage.stop:  # a new FlightComputer resumes from the saved record
+            fc = FlightComputer(load_config())
+            assert fc.restore_state(record)
+        fc.step(int(dts[i]), int(alts[i]), int(accs[i]), HAVE_BOTH)
+        if fc.events or (fc.state > PAD and i % 10 == 0):  # the device's saving policy
+            fc.save_state(record)
+        if fc.events & EV_DROGUE:
+            fired["drogue"].append(i)
+        if fc.events & EV_MAIN:
+            fired["main"].append(i)
+    assert len(fired["drogue"]) == 1 and len(fired["main"]) == 1  # once each, never again
+    if reset_at + 100 < apogee - 100:  # back well before apogee: on time
+        assert abs(fired["drogue"][0] - apogee) <= 30
+    elif reset_at < apogee:  # back near apogee: late by at most the outage and the settling
+        assert apogee - 30 <= fired["drogue"][0] <= apogee + 200
+    assert abs(truth[fired["main"][0]] - 300000 - 250000) <= 10000
+
+
+def test_restore_rejects_a_blank_or_pad_record():
+    from shared.flight import STATE_RECORD_SIZE
+
+    fc = FlightComputer(load_config())
+    assert not fc.restore_state(bytearray(STATE_RECORD_SIZE))
+    fresh = FlightComputer(load_config())
+    record = bytearray(STATE_RECORD_SIZE)
+    fresh.save_state(record)  # still on the pad: nothing to resume, the board calibrates anew
+    assert not fc.restore_state(record) and fc.state == PAD

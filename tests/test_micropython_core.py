@@ -135,3 +135,27 @@ def test_state_machine_heap_locked_and_bit_identical(interp, name, config):
         assert got[i:i + 6] == expected[i:i + 6], "first difference at sample %d" % (i // 6)
     if name == "typical":
         assert any(expected[i + 5] for i in range(0, len(expected), 6))  # it did fire
+
+
+@pytest.mark.parametrize("interp", INTERPRETERS)
+def test_save_state_is_allocation_free_and_restores(interp):
+    code = """
+import micropython
+from shared.config import load_config
+from shared.flight import FlightComputer, STATE_RECORD_SIZE
+from tools.synthetic_flight import make_flight
+from tools.bench_step import run_fc_loop
+flight = make_flight(rate_hz=50, seed=3, after_apogee_s=1)
+fc = FlightComputer(load_config())
+run_fc_loop(fc, flight[0], flight[1], flight[2], None)
+buf = bytearray(STATE_RECORD_SIZE)
+micropython.heap_lock()
+try:
+    for _ in range(100):
+        fc.save_state(buf)
+finally:
+    micropython.heap_unlock()
+other = FlightComputer(load_config())
+print(other.restore_state(buf), other.state == fc.state, other.kf.vel_q4 == fc.kf.vel_q4)
+"""
+    assert run_micropython(code, interp).split()[-3:] == ["True", "True", "True"]
