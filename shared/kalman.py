@@ -49,6 +49,21 @@ def _mul_gain(e, m, s):
     return (p >> r) + ((((p & ((1 << r) - 1)) << 14) + (e & 0x3FFF) * m + (1 << (s - 1))) >> s)
 
 
+def _innovation(meas_mm, state_q4):
+    """(meas << 4) - state, with the measurement clamped to +-MEAS_LIMIT_MM and the result to
+    +-_INNOV_LIMIT; |state_q4| <= 2**29 keeps the difference inside 31 bits."""
+    if meas_mm > MEAS_LIMIT_MM:
+        meas_mm = MEAS_LIMIT_MM
+    elif meas_mm < -MEAS_LIMIT_MM:
+        meas_mm = -MEAS_LIMIT_MM
+    e = (meas_mm << 4) - state_q4
+    if e > _INNOV_LIMIT:
+        return _INNOV_LIMIT
+    if e < -_INNOV_LIMIT:
+        return -_INNOV_LIMIT
+    return e
+
+
 def _clamp(x, limit):
     if x > limit:
         return limit
@@ -78,10 +93,10 @@ class Kalman:
     def predict(self, row):
         """Advance the state by one period T = 1 / row[0] s (constant-acceleration model)."""
         rate = row[0]
-        dv = (self.acc_q4 + (rate >> 1)) // rate  # a*T, rounded
+        acc = self.acc_q4
+        dv = (acc + (rate >> 1)) // rate  # a*T, rounded
         # h += v*T + a*T^2/2 = (2v + a*T) / (2 rate), rounded
-        self.alt_q4 = _clamp(self.alt_q4 + (2 * self.vel_q4 + dv + rate) // (2 * rate), ALT_LIMIT_Q4)
-        self.vel_q4 = _clamp(self.vel_q4 + dv, RATE_LIMIT_Q4)
+        self._store(self.alt_q4 + (2 * self.vel_q4 + dv + rate) // (2 * rate), self.vel_q4 + dv, acc)
 
     def correct(self, row, alt_mm, acc_mmps2):
         """Correct with a barometric altitude (mm) and a kinematic acceleration (mm/s^2)."""
@@ -109,11 +124,11 @@ class Kalman:
         self._add2(self._baro_innovation(alt_mm), -_G_Q4 - self.acc_q4, row, 41)
 
     def _accel_innovation(self, acc_mmps2):
-        # acc_q4 + bias_q4 stays within 2**28 (both clamped to 2**27), the difference within 2**30
-        return _clamp((_clamp(acc_mmps2, MEAS_LIMIT_MM) << 4) - self.acc_q4 - self.bias_q4, _INNOV_LIMIT)
+        # acc_q4 + bias_q4 stays within 2**28 (both clamped to 2**27): the sum is inside 31 bits
+        return _innovation(acc_mmps2, self.acc_q4 + self.bias_q4)
 
     def _baro_innovation(self, alt_mm):
-        e = _clamp((_clamp(alt_mm, MEAS_LIMIT_MM) << 4) - self.alt_q4, _INNOV_LIMIT)
+        e = _innovation(alt_mm, self.alt_q4)
         self.innov_alt_q4 = e
         if self.baro_weight_256 < 256:
             e = (e >> 8) * self.baro_weight_256
@@ -121,15 +136,31 @@ class Kalman:
 
     def _add2(self, eh, ea, row, i):
         """Add K [eh, ea] for the two-measurement gains starting at row[i]."""
-        self.alt_q4 = _clamp(self.alt_q4 + _mul_gain(eh, row[i], row[i + 1])
-                             + _mul_gain(ea, row[i + 2], row[i + 3]), ALT_LIMIT_Q4)
-        self.vel_q4 = _clamp(self.vel_q4 + _mul_gain(eh, row[i + 4], row[i + 5])
-                             + _mul_gain(ea, row[i + 6], row[i + 7]), RATE_LIMIT_Q4)
-        self.acc_q4 = _clamp(self.acc_q4 + _mul_gain(eh, row[i + 8], row[i + 9])
-                             + _mul_gain(ea, row[i + 10], row[i + 11]), RATE_LIMIT_Q4)
+        self._store(
+            self.alt_q4 + _mul_gain(eh, row[i], row[i + 1]) + _mul_gain(ea, row[i + 2], row[i + 3]),
+            self.vel_q4 + _mul_gain(eh, row[i + 4], row[i + 5]) + _mul_gain(ea, row[i + 6], row[i + 7]),
+            self.acc_q4 + _mul_gain(eh, row[i + 8], row[i + 9]) + _mul_gain(ea, row[i + 10], row[i + 11]))
 
     def _add(self, e, row, i):
         """Add K e for the single-sensor gains starting at row[i]."""
-        self.alt_q4 = _clamp(self.alt_q4 + _mul_gain(e, row[i], row[i + 1]), ALT_LIMIT_Q4)
-        self.vel_q4 = _clamp(self.vel_q4 + _mul_gain(e, row[i + 2], row[i + 3]), RATE_LIMIT_Q4)
-        self.acc_q4 = _clamp(self.acc_q4 + _mul_gain(e, row[i + 4], row[i + 5]), RATE_LIMIT_Q4)
+        self._store(self.alt_q4 + _mul_gain(e, row[i], row[i + 1]),
+                    self.vel_q4 + _mul_gain(e, row[i + 2], row[i + 3]),
+                    self.acc_q4 + _mul_gain(e, row[i + 4], row[i + 5]))
+
+    def _store(self, alt, vel, acc):
+        """Store the state, clamped to its limits (inline tests: this runs several times a sample)."""
+        if alt > ALT_LIMIT_Q4:
+            alt = ALT_LIMIT_Q4
+        elif alt < -ALT_LIMIT_Q4:
+            alt = -ALT_LIMIT_Q4
+        if vel > RATE_LIMIT_Q4:
+            vel = RATE_LIMIT_Q4
+        elif vel < -RATE_LIMIT_Q4:
+            vel = -RATE_LIMIT_Q4
+        if acc > RATE_LIMIT_Q4:
+            acc = RATE_LIMIT_Q4
+        elif acc < -RATE_LIMIT_Q4:
+            acc = -RATE_LIMIT_Q4
+        self.alt_q4 = alt
+        self.vel_q4 = vel
+        self.acc_q4 = acc
