@@ -54,3 +54,13 @@ def test_every_key_has_a_unit_and_meaning():
     for key, (default, low, high, unit, meaning) in SCHEMA.items():
         assert low <= default <= high, key
         assert unit and meaning, key
+
+
+def test_every_key_is_documented():
+    from pathlib import Path
+
+    from shared.config import CHOICES
+
+    doc = (Path(__file__).parent.parent / "docs" / "CONFIG.md").read_text()
+    for key in list(SCHEMA) + list(CHOICES):
+        assert "`%s`" % key in doc, key
