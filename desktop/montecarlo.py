@@ -342,6 +342,11 @@ def write_plots(result: StudyResult, out_dir, seed: int) -> list[Path]:
             label=f"seed Kalman, seed rule: mean {np.nanmean(e_k):.3f} s")
     ax.axhline(np.nanmean(e_b), color="tab:orange", linewidth=1)
     ax.axhline(np.nanmean(e_k), color="tab:blue", linewidth=1)
+    if "flight-computer" in result.detections:
+        e_f = np.abs(result.detections["flight-computer"] - result.true_apogee_s)
+        ax.plot(idx, e_f, "o", color="tab:green", markersize=ms,
+                label=f"this flight computer (shared/): mean {np.nanmean(e_f):.3f} s")
+        ax.axhline(np.nanmean(e_f), color="tab:green", linewidth=1)
     ax.set_xlabel("flight index")
     ax.set_ylabel("|detection - true apogee| (s)")
     p = result.parameters
