@@ -89,6 +89,7 @@ _RESUME_SETTLE_MS = const(1000)
 ERR_ORIENTATION = const(1)  # pad accelerometer reading is not about +1 g
 ERR_ACCEL_CLIPPED = const(2)  # at least one reading at the accelerometer's full scale
 ERR_PAD_BARO_STEP = const(4)  # the barometer jumped on the pad (re-based)
+ERR_BARO_ERRATIC = const(8)  # repeated jumps on the pad: a faulty barometer; launch is forbidden
 
 
 def _ema(avg, x, dt_ms, tau_ms):
@@ -122,6 +123,8 @@ class FlightComputer:
         self.ground_alt_mm = ground_alt_mm if ground_alt_mm is not None else 0
         self.one_g_mmps2 = _G_MMPS2
         self.cal_samples = 0  # quiet pad samples that went into the current reference
+        self._pad_jumps = 0
+        self._last_jump_ms = 0
         self._blk_ref_mm = 0
         self._blk_alt = 0
         self._blk_acc = 0
@@ -138,7 +141,7 @@ class FlightComputer:
         self.boost_max_ms = 0  # the longest such stretch
         self.launched = False
         self.flight_proven = False
-        self.climb_ms = 0  # how long the filtered altitude has stayed above proof_climb_m
+        self.climb_ms = 0  # time above proof_climb_m, less the time below since (barometer)
         self.launch_ms = 0
         self.burnout_ms = 0
         self.max_agl_mm = 0
@@ -240,6 +243,11 @@ class FlightComputer:
             jump = alt_mm - (self.kf.alt_q4 >> 4)
             if jump > _PAD_BARO_JUMP_MM or jump < -_PAD_BARO_JUMP_MM:
                 self.errors |= ERR_PAD_BARO_STEP
+                # one step is weather or the av-bay; three within a second is a broken sensor
+                self._pad_jumps = self._pad_jumps + 1 if self.now_ms - self._last_jump_ms < 1000 else 1
+                self._last_jump_ms = self.now_ms
+                if self._pad_jumps >= 3:
+                    self.errors |= ERR_BARO_ERRATIC
                 self.kf.reset(alt_mm, 0, 0)
                 self._blk_ref_mm = alt_mm
                 self._blk_alt = self._blk_acc = self._blk_n = 0
@@ -248,6 +256,8 @@ class FlightComputer:
                 if not self.ground_fixed:
                     self.ground_alt_mm = alt_mm
                 return
+            if self.errors & ERR_BARO_ERRATIC and self.now_ms - self._last_jump_ms > 2000:
+                self.errors &= ~ERR_BARO_ERRATIC
         if have & HAVE_ACCEL:
             limit = self.cfg.launch_accel_mmps2
             quiet = -limit < accel_mmps2 - self.one_g_mmps2 < limit
@@ -366,8 +376,8 @@ class FlightComputer:
 
     def _check_launch(self):
         cfg = self.cfg
-        if self.errors & ERR_ORIENTATION:
-            return  # refuse to fly a board that is not upright with a sane accelerometer
+        if self.errors & (ERR_ORIENTATION | ERR_BARO_ERRATIC):
+            return  # refuse to fly: board not upright, wrong accelerometer, or erratic barometer
         if cfg.has_accel:
             launch = self.boost_ms >= cfg.launch_accel_ms
         else:
@@ -391,6 +401,8 @@ class FlightComputer:
         climb_mm = self.baro_agl_mm if cfg.has_baro else self.agl_mm
         if climb_mm >= cfg.proof_climb_mm:
             self.climb_ms += dt_ms
+        elif self.climb_ms > dt_ms:
+            self.climb_ms -= dt_ms  # a noisy reading below the line costs only its own time
         else:
             self.climb_ms = 0
         # a climb that lasts: a pressure transient (ejection, venting, a knock) decays in tenths
