@@ -58,6 +58,7 @@ EVENT_NAMES = ("launch", "burnout", "apogee", "drogue", "main", "landed")
 # last two complete blocks, so the samples just before a launch (ignition, first motion) never
 # enter it. With no complete block yet (a short pad), all quiet samples so far are used.
 _CAL_BLOCK_MS = const(1000)
+_PAD_OFFSET_LIMIT_MM = const(0xFFFFF)  # 2**20 - 1: 1 km
 _G_MMPS2 = const(9807)
 # The pad reading of the axis must be within 35% of 1 g (see _check_orientation): a wrong part or range,
 # an inverted mount, or a board lying down (../shared/design-notes.md item 4).
@@ -268,6 +269,12 @@ class FlightComputer:
         if not quiet:
             return
         d_alt = alt_mm - self._blk_ref_mm if have & HAVE_BARO else 0
+        # bounded so that a block's sum stays in 31 bits (1 km x 200 samples at 200 Hz) even if
+        # the board sits in pad mode while the barometer sees a flight (launch refused)
+        if d_alt > _PAD_OFFSET_LIMIT_MM:
+            d_alt = _PAD_OFFSET_LIMIT_MM
+        elif d_alt < -_PAD_OFFSET_LIMIT_MM:
+            d_alt = -_PAD_OFFSET_LIMIT_MM
         self._blk_alt += d_alt
         self._blk_acc += acc
         self._blk_n += 1

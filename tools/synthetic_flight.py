@@ -27,6 +27,8 @@ class Noise:
         self.s3 = 170 * self.s3 % 30323
         if amplitude <= 0:
             return 0
+        if amplitude >= 15000:
+            raise ValueError("noise amplitude must be below 15000")
         return (self.s1 + self.s2 + self.s3) % 30269 % (2 * amplitude + 1) - amplitude
 
     def triangular(self, amplitude):
