@@ -12,6 +12,8 @@ import importlib
 COMMANDS = (
     ("montecarlo", "desktop.montecarlo"),
     ("replay", "desktop.replay"),
+    ("simulate", "desktop.simulate"),
+    ("logdecode", "desktop.logdecode"),
 )
 
 

@@ -26,6 +26,10 @@ def _fake_detect_module(monkeypatch):
     mod = types.ModuleType("desktop.detect")
     mod.METHODS = {"fake-integer": fake}
     monkeypatch.setitem(sys.modules, "desktop.detect", mod)
+    # ``import desktop.detect as d`` reads the package attribute once the real module was imported
+    import desktop
+
+    monkeypatch.setattr(desktop, "detect", mod, raising=False)
     return calls
 
 
