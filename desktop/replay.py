@@ -119,11 +119,17 @@ def replay(log, config):
 
 def config_for(log, config_path=None, overrides=None):
     """The configuration for replaying ``log``: a JSON file, else defaults, plus CLI overrides;
-    the sensors setting follows the columns present."""
+    the sensors setting follows the columns present, and the accelerometer's range comes from the
+    log's ``accel_range_g`` metadata when the configuration does not set it."""
     values = {}
     if config_path:
-        values = dict(load_config_file(config_path).values)
+        with open(config_path) as f:
+            raw = f.read()
+        load_config_file(config_path)  # validates, with one-line errors
+        values = dict(json.loads(raw))
     values.update(overrides or {})
+    if "accel_range_g" not in values and log.metadata_float("accel_range_g") is not None:
+        values["accel_range_g"] = log.metadata_float("accel_range_g")
     if "sensors" not in (overrides or {}):
         has_baro = log.pressure_pa is not None or log.altitude_m is not None
         has_accel = log.has_accel
