@@ -119,8 +119,9 @@ def replay(log, config):
 
 def config_for(log, config_path=None, overrides=None):
     """The configuration for replaying ``log``: a JSON file, else defaults, plus CLI overrides;
-    the sensors setting follows the columns present, and the accelerometer's range comes from the
-    log's ``accel_range_g`` metadata when the configuration does not set it."""
+    the sensors setting follows the columns present, and the accelerometer's range and the
+    barometer's lag come from the log's ``accel_range_g`` and ``baro_lag_ms`` metadata when the
+    configuration does not set them."""
     values = {}
     if config_path:
         with open(config_path) as f:
@@ -128,8 +129,9 @@ def config_for(log, config_path=None, overrides=None):
         load_config_file(config_path)  # validates, with one-line errors
         values = dict(json.loads(raw))
     values.update(overrides or {})
-    if "accel_range_g" not in values and log.metadata_float("accel_range_g") is not None:
-        values["accel_range_g"] = log.metadata_float("accel_range_g")
+    for key in ("accel_range_g", "baro_lag_ms"):
+        if key not in values and log.metadata_float(key) is not None:
+            values[key] = log.metadata_float(key)
     if "sensors" not in (overrides or {}):
         has_baro = log.pressure_pa is not None or log.altitude_m is not None
         has_accel = log.has_accel

@@ -457,6 +457,8 @@ def make_record(
         "site_altitude_m": r(traj.site_altitude_m, 2),
         "derived_columns": ", ".join(traj.derived_columns) if traj.derived_columns else "none",
         "board_rate_hz": r(board.rate_hz, 3),
+        # the delay the board should compensate: static port + part filter + half a conversion
+        "baro_lag_ms": int(round((board.port_lag_s + baro.lag_s + 0.5 / baro.odr_hz) * 1000)),
         "accel_range_g": r(acc.full_scale_mps2 / G0, 1) if math.isfinite(acc.full_scale_mps2) else None,
         "pad_s": r(board.pad_s, 3),
         "true_max_mach": r(traj.max_mach, 3),

@@ -32,6 +32,8 @@ SCHEMA = {
     "mach_baro_weight_pct": (37.5, 0, 100, "%", "barometer weight reached at 1.32 x mach_lockout_mps"),
     "landed_window_s": (10, 2, 120, "s", "landed: altitude varies less than landed_alt_m over this window"),
     "landed_alt_m": (4, 0.5, 100, "m", "landed: altitude band"),
+    "baro_lag_ms": (0, 0, 500, "ms",
+        "the barometer's reading lag (its IIR/oversampling filter and the static port); compensated"),
     "accel_range_g": (0, 0, 1000, "g",
         "accelerometer full scale; readings at it are clipped and ignored (0 = unknown)"),
 }
@@ -69,6 +71,7 @@ class Config:
         self.landed_window_ms = int(v["landed_window_s"] * 1000)
         self.landed_alt_mm = int(v["landed_alt_m"] * 1000)
         self.accel_limit_mmps2 = int(v["accel_range_g"] * G_MMPS2 * 98 // 100)  # 0 = no check
+        self.baro_lag_ms = int(v["baro_lag_ms"])
         self.seed_rule = v["apogee_rule"] == "seed"
         self.has_baro = v["sensors"] in ("both", "baro")
         self.has_accel = v["sensors"] in ("both", "accel")

@@ -28,8 +28,11 @@ MODEL_GRAVITY = const(2)  # late coast: barometer and "acceleration = -g"; accel
 MAX_PREDICT_STEPS = const(600)
 # A reading outside its gate is an outlier (ejection charge, shock, pressure transient) and is not
 # used; after this long of consecutive outliers the filter accepts them again (re-synchronises),
-# so a filter that really drifted away cannot lock its sensor out for good.
-GATE_RESYNC_US = const(1000000)
+# so a filter that really drifted away cannot lock its sensor out for good. Accelerometer
+# outliers (shocks, ejection) last tens of ms, a real change in acceleration persists: 0.1 s.
+# Barometric transients (ejection, Mach) last up to about a second.
+BARO_RESYNC_US = const(1000000)
+ACCEL_RESYNC_US = const(100000)
 
 
 def _clamp(x):
@@ -84,7 +87,7 @@ class Detector:
             e = _clamp(alt_mm) - (kf.alt_q4 >> 4)
             if e > self.gate_alt_mm or e < -self.gate_alt_mm:
                 self.baro_outlier_us += dt_us
-                if self.baro_outlier_us < GATE_RESYNC_US:
+                if self.baro_outlier_us < BARO_RESYNC_US:
                     have &= HAVE_ACCEL
                     self.outliers += 1
             else:
@@ -93,7 +96,7 @@ class Detector:
             e = _clamp(acc_mmps2) - (kf.acc_q4 >> 4)
             if e > self.gate_acc_mmps2 or e < -self.gate_acc_mmps2:
                 self.accel_outlier_us += dt_us
-                if self.accel_outlier_us < GATE_RESYNC_US:
+                if self.accel_outlier_us < ACCEL_RESYNC_US:
                     have &= HAVE_BARO
                     self.outliers += 1
             else:

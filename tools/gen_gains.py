@@ -56,6 +56,7 @@ SIGMA_ACCEL_MPS2 = 2.0
 # the accelerometer is trusted more (its vibration and tilt error fall once the motor is out).
 SIGMA_BIAS = 0.3
 SIGMA_ACCEL_COAST_MPS2 = 1.0
+SIGMA_JERK_COAST = 2.0
 # Late coast (vertical speed below the state machine's LATE_COAST speed, 30 m/s): the vertical
 # acceleration is -g - (D/m) v_z/|v|; drag D/m at 30 m/s is 0.3 m/s^2 for a 1 kg, 40 mm rocket
 # and about 1.4 m/s^2 for a 100 g, 25 mm one, and it vanishes at apogee. So "-g" is used as a
@@ -133,7 +134,7 @@ def iterated_gain(t_s, h, r, sigma_jerk=SIGMA_JERK, tol=1e-14, max_iterations=50
     raise RuntimeError("Kalman gain did not converge for T=%g s" % t_s)
 
 
-def bias_gain(t_s, sigma_jerk=SIGMA_JERK, sigma_bias=SIGMA_BIAS, sigma_accel=SIGMA_ACCEL_COAST_MPS2):
+def bias_gain(t_s, sigma_jerk=SIGMA_JERK_COAST, sigma_bias=SIGMA_BIAS, sigma_accel=SIGMA_ACCEL_COAST_MPS2):
     """Steady-state gain of the coast model with accelerometer bias, shape (4, 2).
 
     State (altitude, velocity, acceleration, accelerometer bias); the accelerometer measures
