@@ -6,6 +6,8 @@ the previous sample). Readings: barometric altitude in mm (any datum) and kinema
 in mm/s^2 (specific force minus the pad's 1 g; 0 at rest, about -9807 in drag-free coast).
 """
 
+from array import array
+
 try:
     from micropython import const
 except ImportError:
@@ -62,8 +64,7 @@ class Detector:
         # innovation gates (0 = off), set by the state machine for the flight phase
         self.gate_alt_mm = 0
         self.gate_acc_mmps2 = 0
-        self.baro_outlier_us = 0  # consecutive time with barometric outliers
-        self.accel_outlier_us = 0
+        self.outlier_us = array("i", (0, 0))  # consecutive outlier time: barometer, accelerometer
         self.outliers = 0  # count of rejected readings
         self.model = MODEL_PLAIN
 
@@ -83,24 +84,12 @@ class Detector:
         kf = self.kf
         for _ in range(self.predict_steps):
             kf.predict(row)
-        if have & HAVE_BARO and self.gate_alt_mm:
-            e = _clamp(alt_mm) - (kf.alt_q4 >> 4)
-            if e > self.gate_alt_mm or e < -self.gate_alt_mm:
-                self.baro_outlier_us += dt_us
-                if self.baro_outlier_us < BARO_RESYNC_US:
-                    have &= HAVE_ACCEL
-                    self.outliers += 1
-            else:
-                self.baro_outlier_us = 0
-        if have & HAVE_ACCEL and self.gate_acc_mmps2:
-            e = _clamp(acc_mmps2) - (kf.acc_q4 >> 4)
-            if e > self.gate_acc_mmps2 or e < -self.gate_acc_mmps2:
-                self.accel_outlier_us += dt_us
-                if self.accel_outlier_us < ACCEL_RESYNC_US:
-                    have &= HAVE_BARO
-                    self.outliers += 1
-            else:
-                self.accel_outlier_us = 0
+        if have & HAVE_BARO and self.gate_alt_mm and self._outlier(
+                _clamp(alt_mm) - (kf.alt_q4 >> 4), self.gate_alt_mm, 0, dt_us, BARO_RESYNC_US):
+            have &= HAVE_ACCEL
+        if have & HAVE_ACCEL and self.gate_acc_mmps2 and self._outlier(
+                _clamp(acc_mmps2) - (kf.acc_q4 >> 4), self.gate_acc_mmps2, 1, dt_us, ACCEL_RESYNC_US):
+            have &= HAVE_BARO
         if self.model == MODEL_GRAVITY:
             if have & HAVE_BARO:
                 kf.correct_gravity(row, alt_mm)
@@ -114,6 +103,18 @@ class Detector:
         elif have == HAVE_ACCEL:
             kf.correct_accel(row, acc_mmps2)
         return self.rule.update(kf, row[0], enabled)
+
+    def _outlier(self, e, gate, sensor, dt_us, resync_us):
+        """True if the innovation ``e`` is beyond ``gate`` and this sensor's run of outliers is
+        still shorter than ``resync_us`` (then the reading is not used)."""
+        if -gate <= e <= gate:
+            self.outlier_us[sensor] = 0
+            return False
+        self.outlier_us[sensor] += dt_us
+        if self.outlier_us[sensor] < resync_us:
+            self.outliers += 1
+            return True
+        return False
 
     def _set_period(self, dt_us):
         """Select the gain row and the number of its periods that cover ``dt_us``.
