@@ -22,11 +22,23 @@ result in attributes that already exist (no tuples, no floats, no new attributes
 Bus errors are not caught: an address NACK or a dead device raises the port's ``OSError``
 (``ENODEV`` 19, ``EIO`` 5, ``ETIMEDOUT`` 110) out of ``read()``; the flight loop decides.
 
-This module holds what the drivers share: the exceptions, the time shims for CPython, and
-``mul_shr``, the split multiplication that keeps integer compensation inside the 31-bit small
-ints of a 32-bit board (see docs/SENSORS.md). Copy the whole package to the board
-(``mpremote cp -r device/drivers :``): the drivers import it relatively.
+This module holds what the drivers share: the exceptions, the ``const`` and time shims for
+CPython, ``mul_shr`` (the split multiplication that keeps integer compensation inside the 31-bit
+small ints of a 32-bit board, see docs/SENSORS.md), ``I2CDevice`` (bus, address, one-byte register
+access, identity check) and ``Accelerometer`` (the burst-to-mm/s^2 conversion of the three
+accelerometer drivers). Copy the whole package to the board (``mpremote cp -r device/drivers :``):
+the drivers import it relatively.
 """
+
+from array import array
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+
+    def const(x):
+        return x
+
 
 try:
     from time import sleep_ms, sleep_us, ticks_diff, ticks_us
@@ -57,6 +69,11 @@ __all__ = [
     "chip_id_error",
     "mul_shr",
     "accel_scale_q",
+    "I2CDevice",
+    "Accelerometer",
+    "LITTLE_ENDIAN",
+    "BIG_ENDIAN",
+    "const",
     "sleep_ms",
     "sleep_us",
     "ticks_us",
@@ -131,3 +148,94 @@ def accel_scale_q(scale_ng, full_scale):
         if full_scale * kf < (1 << 29) or shift == 1:
             return ki, kf, shift
         shift -= 1
+
+
+class I2CDevice:
+    """What every register-based driver has: the bus, the address, one-byte register access.
+
+    ``_read8``/``_write8`` go through the one-byte scratch buffer ``_b1``, so they allocate
+    nothing. The subclass holds its own register map (``_REG_... = const(0x..)``).
+    """
+
+    def __init__(self, i2c, addr):
+        self.i2c = i2c
+        self.addr = addr
+        self._b1 = bytearray(1)
+
+    def _read8(self, reg):
+        self.i2c.readfrom_mem_into(self.addr, reg, self._b1)
+        return self._b1[0]
+
+    def _write8(self, reg, value):
+        self._b1[0] = value
+        self.i2c.writeto_mem(self.addr, reg, self._b1)
+
+    def _check_id(self, reg, ids, part, expected):
+        """Read the identity register ``reg`` and return it if it is one of ``ids``; otherwise
+        raise ``ChipIdError`` naming ``part`` and the ``expected`` id(s) (init path only)."""
+        got = self._read8(reg)
+        if got not in ids:
+            raise chip_id_error(part, self.addr, got, expected)
+        return got
+
+
+LITTLE_ENDIAN = const(0)  # low byte first in each int16 (ADXL375, LSM6DSO)
+BIG_ENDIAN = const(1)  # high byte first (MPU6050)
+
+
+class Accelerometer(I2CDevice):
+    """Three-axis int16 accelerometer: the state of docs/SENSORS.md's accelerometer API and the
+    conversion of one burst of six bytes.
+
+    ``raw_min``/``raw_max`` are the part's extreme codes (a read at either sets ``clipped``);
+    ``-raw_min`` is the full scale used for ``accel_scale_q``. ``scale_ng`` (nano-g per LSB)
+    overrides ``nominal_ng``.
+    """
+
+    def __init__(self, i2c, addr, part, range_g, rate_hz, scale_ng, nominal_ng, raw_min, raw_max):
+        super().__init__(i2c, addr)
+        self.part = part
+        self.range_g = range_g
+        self.rate_hz = rate_hz
+        self.scale_ng = scale_ng if scale_ng is not None else nominal_ng
+        self._ki, self._kf, self._shift = accel_scale_q(self.scale_ng, -raw_min)
+        self._half = 1 << (self._shift - 1)
+        self._raw_min = raw_min
+        self._raw_max = raw_max
+        self._buf = bytearray(6)
+        self.raw = array("h", [0, 0, 0])
+        self.accel_mmps2 = array("i", [0, 0, 0])
+        self.clipped = False
+        self.clip_count = 0
+
+    def _read_accel(self, reg, byte_order):
+        """Burst-read X, Y, Z (int16 each, ``LITTLE_ENDIAN`` or ``BIG_ENDIAN``) from ``reg`` and
+        update ``raw``, ``accel_mmps2``, ``clipped`` and ``clip_count``.
+
+        Allocation-free and integer-only: |v| <= 2**15 and |v * kf| < 2**29 (``accel_scale_q``).
+        """
+        b = self._buf
+        self.i2c.readfrom_mem_into(self.addr, reg, b)
+        lo = byte_order  # offset of the low byte within each pair
+        hi = 1 - byte_order
+        raw = self.raw
+        out = self.accel_mmps2
+        ki = self._ki
+        kf = self._kf
+        shift = self._shift
+        half = self._half
+        raw_min = self._raw_min
+        raw_max = self._raw_max
+        clipped = False
+        for i in range(3):
+            j = 2 * i
+            v = b[j + lo] | (b[j + hi] << 8)
+            if v & 0x8000:
+                v -= 65536
+            if v >= raw_max or v <= raw_min:
+                clipped = True
+            raw[i] = v
+            out[i] = v * ki + ((v * kf + half) >> shift)
+        self.clipped = clipped
+        if clipped:
+            self.clip_count += 1

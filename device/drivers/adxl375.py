@@ -40,17 +40,7 @@ in ``raw`` and the specific force in ``accel_mmps2`` (mm/s^2, +9807 on the axis 
 rest).
 """
 
-from array import array
-
-try:
-    from micropython import const
-except ImportError:  # CPython
-
-    def const(x):
-        return x
-
-
-from . import accel_scale_q, chip_id_error
+from . import LITTLE_ENDIAN, Accelerometer, const
 
 _REG_DEVID = const(0x00)
 _REG_OFSX = const(0x1E)
@@ -73,7 +63,7 @@ _SCALE_NG = {"ADXL375": 49000000, "ADXL345": 3906250}
 _RANGE_G = {"ADXL375": 200, "ADXL345": 16}
 
 
-class ADXL375:
+class ADXL375(Accelerometer):
     """ADXL375 (default) or ADXL345 (``part="ADXL345"``): both answer DEVID 0xE5."""
 
     def __init__(self, i2c, addr=0x53, part="ADXL375", rate_hz=800, scale_ng=None):
@@ -81,24 +71,10 @@ class ADXL375:
             raise ValueError("ADXL375: part must be 'ADXL375' or 'ADXL345'")
         if rate_hz not in _RATES_HZ:
             raise ValueError("%s: rate_hz must be one of %s" % (part, _RATES_HZ))
-        self.i2c = i2c
-        self.addr = addr
-        self.part = part
-        self.range_g = _RANGE_G[part]
-        self.rate_hz = rate_hz
-        self.scale_ng = scale_ng if scale_ng is not None else _SCALE_NG[part]
-        self._ki, self._kf, self._shift = accel_scale_q(self.scale_ng, 4096)
-        self._half = 1 << (self._shift - 1)
-        self._b1 = bytearray(1)
-        self._buf = bytearray(6)
-        self.raw = array("h", [0, 0, 0])
-        self.accel_mmps2 = array("i", [0, 0, 0])
-        self.clipped = False
-        self.clip_count = 0
-
-        devid = self._read8(_REG_DEVID)
-        if devid != _DEVID:
-            raise chip_id_error(part, addr, devid, "0xe5 (ADXL345/ADXL375)")
+        super().__init__(
+            i2c, addr, part, _RANGE_G[part], rate_hz, scale_ng, _SCALE_NG[part], _RAW_MIN, _RAW_MAX
+        )
+        self._check_id(_REG_DEVID, (_DEVID,), part, "0xe5 (ADXL345/ADXL375)")
         self._write8(_REG_POWER_CTL, 0x00)
         self._write8(_REG_BW_RATE, _RATE_CODES[_RATES_HZ.index(rate_hz)])
         self._write8(_REG_DATA_FORMAT, _DATA_FORMAT_FULL_RES)
@@ -108,36 +84,9 @@ class ADXL375:
             self._write8(_REG_OFSX + i, 0x00)
         self._write8(_REG_POWER_CTL, _POWER_MEASURE)
 
-    def _read8(self, reg):
-        self.i2c.readfrom_mem_into(self.addr, reg, self._b1)
-        return self._b1[0]
-
-    def _write8(self, reg, value):
-        self._b1[0] = value
-        self.i2c.writeto_mem(self.addr, reg, self._b1)
-
     def read(self):
-        """One burst read of the three axes; updates ``raw``, ``accel_mmps2``, ``clipped``."""
-        b = self._buf
-        self.i2c.readfrom_mem_into(self.addr, _REG_DATAX0, b)
-        raw = self.raw
-        out = self.accel_mmps2
-        ki = self._ki
-        kf = self._kf
-        shift = self._shift
-        half = self._half
-        clipped = False
-        for i in range(3):
-            v = b[2 * i] | (b[2 * i + 1] << 8)
-            if v & 0x8000:
-                v -= 65536
-            if v >= _RAW_MAX or v <= _RAW_MIN:
-                clipped = True
-            raw[i] = v
-            out[i] = v * ki + ((v * kf + half) >> shift)
-        self.clipped = clipped
-        if clipped:
-            self.clip_count += 1
+        """One burst read of DATAX0..DATAZ1; updates ``raw``, ``accel_mmps2``, ``clipped``."""
+        self._read_accel(_REG_DATAX0, LITTLE_ENDIAN)
 
 
 class ADXL345(ADXL375):

@@ -40,15 +40,7 @@ The datasheet example (``dig_T1 = 27504 ...``, adc_T 519888, adc_P 415148) gives
 25.08 degC and 100653.26 Pa (int64: 25767233 / 256 = 100653.25 Pa).
 """
 
-try:
-    from micropython import const
-except ImportError:  # CPython
-
-    def const(x):
-        return x
-
-
-from . import CalibrationError, chip_id_error, mul_shr, sleep_ms
+from . import CalibrationError, I2CDevice, const, mul_shr, sleep_ms
 
 _REG_CALIB = const(0x88)
 _REG_ID = const(0xD0)
@@ -78,7 +70,7 @@ def measurement_time_us(osrs_p, osrs_t):
     return 1000 + 2000 * osrs_t + 2000 * osrs_p + 500
 
 
-class BMP280:
+class BMP280(I2CDevice):
     """BMP280 (chip id 0x58) or BME280 (0x60, humidity not read); ``part`` says which."""
 
     def __init__(self, i2c, addr=0x76, osrs_p=4, osrs_t=1, iir=0, t_sb_us=500):
@@ -88,9 +80,7 @@ class BMP280:
             raise ValueError("BMP280: iir must be one of 0, 2, 4, 8, 16")
         if t_sb_us not in _T_SB_US:
             raise ValueError("BMP280: t_sb_us must be one of %s" % (_T_SB_US,))
-        self.i2c = i2c
-        self.addr = addr
-        self._b1 = bytearray(1)
+        super().__init__(i2c, addr)
         self._buf = bytearray(6)
         self.pressure_q4_pa = 0
         self.temp_cdeg = 0
@@ -99,13 +89,10 @@ class BMP280:
         self.raw_temp = 0
         self.period_us = measurement_time_us(osrs_p, osrs_t) + t_sb_us
 
-        chip = self._read8(_REG_ID)
-        if chip == _CHIP_ID_BMP280:
-            self.part = "BMP280"
-        elif chip == _CHIP_ID_BME280:
-            self.part = "BME280"
-        else:
-            raise chip_id_error("BMP280", addr, chip, "0x58 (BMP280) or 0x60 (BME280)")
+        chip = self._check_id(
+            _REG_ID, (_CHIP_ID_BMP280, _CHIP_ID_BME280), "BMP280", "0x58 (BMP280) or 0x60 (BME280)"
+        )
+        self.part = "BMP280" if chip == _CHIP_ID_BMP280 else "BME280"
         self._write8(_REG_RESET, _RESET_CMD)
         sleep_ms(3)
         for _ in range(20):
@@ -116,14 +103,6 @@ class BMP280:
         self._write8(_REG_CONFIG, (_T_SB_US.index(t_sb_us) << 5) | (_IIR_VALUES.index(iir) << 2))
         self.ctrl_meas = (_OSRS_VALUES.index(osrs_t) << 5) | (_OSRS_VALUES.index(osrs_p) << 2) | 0x03
         self._write8(_REG_CTRL_MEAS, self.ctrl_meas)
-
-    def _read8(self, reg):
-        self.i2c.readfrom_mem_into(self.addr, reg, self._b1)
-        return self._b1[0]
-
-    def _write8(self, reg, value):
-        self._b1[0] = value
-        self.i2c.writeto_mem(self.addr, reg, self._b1)
 
     def _load_calibration(self):
         b = bytearray(24)

@@ -48,15 +48,7 @@ is 0.016 Pa, its RMS noise at x8 about 0.2 Pa). The temperature is rounded to th
 promotes to long ints, i.e. ``read()`` allocates.
 """
 
-try:
-    from micropython import const
-except ImportError:  # CPython
-
-    def const(x):
-        return x
-
-
-from . import CalibrationError, ConfigError, chip_id_error, mul_shr, sleep_ms
+from . import CalibrationError, ConfigError, I2CDevice, const, mul_shr, sleep_ms
 
 _REG_CHIP_ID = const(0x00)
 _REG_ERR = const(0x02)
@@ -97,13 +89,11 @@ def measurement_time_us(osr_p, osr_t):
     return 234 + 392 + osr_p * 2000 + 313 + osr_t * 2000
 
 
-class BMP3XX:
+class BMP3XX(I2CDevice):
     """BMP388 (chip id 0x50) or BMP390 (chip id 0x60) on I2C; ``part`` says which answered."""
 
     def __init__(self, i2c, addr=0x77, osr_p=8, osr_t=1, iir=0, odr_hz=50):
-        self.i2c = i2c
-        self.addr = addr
-        self._b1 = bytearray(1)
+        super().__init__(i2c, addr)
         self._buf = bytearray(7)
         self.pressure_q4_pa = 0
         self.temp_cdeg = 0
@@ -130,13 +120,13 @@ class BMP3XX:
                 % (osr_p, osr_t, self.measurement_us, self.period_us)
             )
 
-        chip = self._read8(_REG_CHIP_ID)
-        if chip == _CHIP_ID_BMP388:
-            self.part = "BMP388"
-        elif chip == _CHIP_ID_BMP390:
-            self.part = "BMP390"
-        else:
-            raise chip_id_error("BMP388/BMP390", addr, chip, "0x50 (BMP388) or 0x60 (BMP390)")
+        chip = self._check_id(
+            _REG_CHIP_ID,
+            (_CHIP_ID_BMP388, _CHIP_ID_BMP390),
+            "BMP388/BMP390",
+            "0x50 (BMP388) or 0x60 (BMP390)",
+        )
+        self.part = "BMP388" if chip == _CHIP_ID_BMP388 else "BMP390"
 
         self._write8(_REG_CMD, _CMD_SOFT_RESET)
         sleep_ms(3)
@@ -148,14 +138,6 @@ class BMP3XX:
         err = self._read8(_REG_ERR)
         if err & _ERR_CONF:
             raise ConfigError("%s at 0x%02x: ERR=0x%02x, configuration rejected" % (self.part, addr, err))
-
-    def _read8(self, reg):
-        self.i2c.readfrom_mem_into(self.addr, reg, self._b1)
-        return self._b1[0]
-
-    def _write8(self, reg, value):
-        self._b1[0] = value
-        self.i2c.writeto_mem(self.addr, reg, self._b1)
 
     def _load_calibration(self):
         b = bytearray(21)

@@ -28,17 +28,7 @@ Scale: 0.488 mg/LSB (LSM6DSO +-16 g) or 0.976 mg/LSB (LSM6DSO32 +-32 g), int16 o
 ``read()`` burst-reads OUTX_L_A..OUTZ_H_A (0x28..0x2D, little-endian int16).
 """
 
-from array import array
-
-try:
-    from micropython import const
-except ImportError:  # CPython
-
-    def const(x):
-        return x
-
-
-from . import accel_scale_q, chip_id_error, sleep_ms
+from . import LITTLE_ENDIAN, Accelerometer, const, sleep_ms
 
 _REG_WHO_AM_I = const(0x0F)
 _REG_CTRL1_XL = const(0x10)
@@ -55,30 +45,14 @@ _SCALE_NG = {"LSM6DSO": 488000, "LSM6DSO32": 976000}
 _RANGE_G = {"LSM6DSO": 16, "LSM6DSO32": 32}
 
 
-class LSM6DSO:
+class LSM6DSO(Accelerometer):
     """LSM6DSO (default) or LSM6DSO32 (``part="LSM6DSO32"``), accelerometer only."""
 
     def __init__(self, i2c, addr=0x6A, part="LSM6DSO", scale_ng=None):
         if part not in _SCALE_NG:
             raise ValueError("LSM6DSO: part must be 'LSM6DSO' or 'LSM6DSO32'")
-        self.i2c = i2c
-        self.addr = addr
-        self.part = part
-        self.range_g = _RANGE_G[part]
-        self.rate_hz = 833
-        self.scale_ng = scale_ng if scale_ng is not None else _SCALE_NG[part]
-        self._ki, self._kf, self._shift = accel_scale_q(self.scale_ng, 32768)
-        self._half = 1 << (self._shift - 1)
-        self._b1 = bytearray(1)
-        self._buf = bytearray(6)
-        self.raw = array("h", [0, 0, 0])
-        self.accel_mmps2 = array("i", [0, 0, 0])
-        self.clipped = False
-        self.clip_count = 0
-
-        who = self._read8(_REG_WHO_AM_I)
-        if who != _WHO_AM_I:
-            raise chip_id_error(part, addr, who, "0x6c (LSM6DSO/LSM6DSOX/LSM6DSO32)")
+        super().__init__(i2c, addr, part, _RANGE_G[part], 833, scale_ng, _SCALE_NG[part], -32768, 32767)
+        self._check_id(_REG_WHO_AM_I, (_WHO_AM_I,), part, "0x6c (LSM6DSO/LSM6DSOX/LSM6DSO32)")
         self._write8(_REG_CTRL3_C, _CTRL3_SW_RESET)
         for _ in range(50):
             sleep_ms(1)
@@ -88,33 +62,6 @@ class LSM6DSO:
         self._write8(_REG_CTRL2_G, 0x00)
         self._write8(_REG_CTRL1_XL, _CTRL1_833HZ_FS01)
 
-    def _read8(self, reg):
-        self.i2c.readfrom_mem_into(self.addr, reg, self._b1)
-        return self._b1[0]
-
-    def _write8(self, reg, value):
-        self._b1[0] = value
-        self.i2c.writeto_mem(self.addr, reg, self._b1)
-
     def read(self):
-        """One burst read of the three axes; updates ``raw``, ``accel_mmps2``, ``clipped``."""
-        b = self._buf
-        self.i2c.readfrom_mem_into(self.addr, _REG_OUTX_L_A, b)
-        raw = self.raw
-        out = self.accel_mmps2
-        ki = self._ki
-        kf = self._kf
-        shift = self._shift
-        half = self._half
-        clipped = False
-        for i in range(3):
-            v = b[2 * i] | (b[2 * i + 1] << 8)
-            if v & 0x8000:
-                v -= 65536
-            if v >= 32767 or v <= -32768:
-                clipped = True
-            raw[i] = v
-            out[i] = v * ki + ((v * kf + half) >> shift)
-        self.clipped = clipped
-        if clipped:
-            self.clip_count += 1
+        """One burst read of OUTX_L_A..OUTZ_H_A; updates ``raw``, ``accel_mmps2``, ``clipped``."""
+        self._read_accel(_REG_OUTX_L_A, LITTLE_ENDIAN)

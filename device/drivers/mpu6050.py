@@ -29,17 +29,7 @@ with 2048 LSB/g nominal (``scale_ng`` = 488 281 nano-g/LSB; override per unit, +
 units).
 """
 
-from array import array
-
-try:
-    from micropython import const
-except ImportError:  # CPython
-
-    def const(x):
-        return x
-
-
-from . import accel_scale_q, chip_id_error, sleep_ms
+from . import BIG_ENDIAN, Accelerometer, const, sleep_ms
 
 _REG_SMPLRT_DIV = const(0x19)
 _REG_CONFIG = const(0x1A)
@@ -56,30 +46,15 @@ _FS_16G = const(0x18)
 _FS_2000DPS = const(0x18)
 
 
-class MPU6050:
+class MPU6050(Accelerometer):
     """MPU-6050 accelerometer at +-16 g (WHO_AM_I 0x68)."""
 
     def __init__(self, i2c, addr=0x68, dlpf=1, scale_ng=None):
         if not 0 <= dlpf <= 6:
             raise ValueError("MPU6050: dlpf must be 0..6")
-        self.i2c = i2c
-        self.addr = addr
-        self.part = "MPU6050"
-        self.range_g = 16
-        self.rate_hz = 1000
-        self.scale_ng = scale_ng if scale_ng is not None else 488281  # 1 g / 2048
-        self._ki, self._kf, self._shift = accel_scale_q(self.scale_ng, 32768)
-        self._half = 1 << (self._shift - 1)
-        self._b1 = bytearray(1)
-        self._buf = bytearray(6)
-        self.raw = array("h", [0, 0, 0])
-        self.accel_mmps2 = array("i", [0, 0, 0])
-        self.clipped = False
-        self.clip_count = 0
-
-        who = self._read8(_REG_WHO_AM_I)
-        if who != _WHO_AM_I:
-            raise chip_id_error("MPU6050", addr, who, "0x68")
+        # 488281 nano-g/LSB = 1 g / 2048 (AFS_SEL = 3)
+        super().__init__(i2c, addr, "MPU6050", 16, 1000, scale_ng, 488281, -32768, 32767)
+        self._check_id(_REG_WHO_AM_I, (_WHO_AM_I,), "MPU6050", "0x68")
         self._write8(_REG_PWR_MGMT_1, _RESET)
         sleep_ms(100)
         self._write8(_REG_PWR_MGMT_1, _CLK_PLL_X)
@@ -88,33 +63,7 @@ class MPU6050:
         self._write8(_REG_GYRO_CONFIG, _FS_2000DPS)
         self._write8(_REG_ACCEL_CONFIG, _FS_16G)
 
-    def _read8(self, reg):
-        self.i2c.readfrom_mem_into(self.addr, reg, self._b1)
-        return self._b1[0]
-
-    def _write8(self, reg, value):
-        self._b1[0] = value
-        self.i2c.writeto_mem(self.addr, reg, self._b1)
-
     def read(self):
-        """One burst read of the accelerometer; updates ``raw``, ``accel_mmps2``, ``clipped``."""
-        b = self._buf
-        self.i2c.readfrom_mem_into(self.addr, _REG_ACCEL_XOUT_H, b)
-        raw = self.raw
-        out = self.accel_mmps2
-        ki = self._ki
-        kf = self._kf
-        shift = self._shift
-        half = self._half
-        clipped = False
-        for i in range(3):
-            v = (b[2 * i] << 8) | b[2 * i + 1]
-            if v & 0x8000:
-                v -= 65536
-            if v >= 32767 or v <= -32768:
-                clipped = True
-            raw[i] = v
-            out[i] = v * ki + ((v * kf + half) >> shift)
-        self.clipped = clipped
-        if clipped:
-            self.clip_count += 1
+        """One burst read of ACCEL_XOUT_H..ACCEL_ZOUT_L; updates ``raw``, ``accel_mmps2``,
+        ``clipped``."""
+        self._read_accel(_REG_ACCEL_XOUT_H, BIG_ENDIAN)

@@ -35,15 +35,7 @@ with floor shifts, so every intermediate stays below 2**28 for -40..+85 degC wit
 pressure keeps 4 fractional bits: ``floor((D1 * SENS - OFF * 2**21) / 2**32)``.
 """
 
-try:
-    from micropython import const
-except ImportError:  # CPython
-
-    def const(x):
-        return x
-
-
-from . import CalibrationError, mul_shr, sleep_ms, sleep_us, ticks_diff, ticks_us
+from . import CalibrationError, const, mul_shr, sleep_ms, sleep_us, ticks_diff, ticks_us
 
 _CMD_RESET = const(0x1E)
 _CMD_CONVERT_D1 = const(0x40)

@@ -1,0 +1,164 @@
+"""Resume after a reset in flight: the one place that saves and restores the flight state.
+
+Design note 3: a reset in flight (brown-out when a charge fires, watchdog) must not re-calibrate
+"ground" at altitude, and the board must never silently enter pad mode after a reboot that cannot
+prove it is on the ground.
+
+Two things are stored:
+
+- ``armed.flag``: a file written when the board arms (on the pad: a safe time for flash) and
+  removed when it disarms or has landed and closed its log. A boot that finds it knows the last
+  session ended in a reset while armed.
+- the resume record: a header (phase, state, log position) and the flight computer's snapshot
+  (``FlightComputer.save_state``, ``shared.flight.STATE_RECORD_SIZE`` bytes). Where the port has
+  RTC memory (``machine.RTC().memory()``, ESP32: kept across watchdog, brown-out and soft resets)
+  it is rewritten every 0.1 s in flight and at every event. Elsewhere (the RP2040 port has no
+  RTC memory) it goes to the small file ``resume.bin`` at launch and at every event only, at the
+  safe point right after the sample (a flash write stalls the CPU: design note 5; the stall is
+  counted as missed deadlines and the filter predicts across it).
+
+On boot with ``armed.flag`` present, the app restores the record if it is a flight record the
+flight computer accepts (``restore_state``: the state machine carries on from there; it lets the
+filter re-converge before any apogee decision); otherwise it stays disarmed with error 7 until the
+arming input is cycled off and on.
+"""
+
+import struct
+
+try:
+    from binascii import crc32
+except ImportError:  # pragma: no cover
+    from zlib import crc32
+
+FLAG_FILE = "armed.flag"
+RECORD_FILE = "resume.bin"
+MAGIC = 0x2AFC
+PHASE_NONE = 0
+PHASE_PAD = 1
+PHASE_FLIGHT = 2
+PHASE_LANDED = 3
+_HDR_FMT = "<HBBIIII"  # magic, phase, state, sample index, fc_start, snapshot length, crc of it
+_HDR_SIZE = 20
+
+
+def _snapshot_size():
+    try:
+        from shared.flight import STATE_RECORD_SIZE
+    except ImportError:
+        return 0
+    return STATE_RECORD_SIZE
+
+
+class ResumeStore:
+    def __init__(self, machine):
+        self.rtc = None
+        try:
+            rtc = machine.RTC()
+            rtc.memory()  # AttributeError where the port has no RTC memory
+            self.rtc = rtc
+        except Exception:  # noqa: BLE001
+            self.rtc = None
+        self.backend = "rtc" if self.rtc is not None else "file"
+        self.snap_size = _snapshot_size()
+        self.buf = bytearray(_HDR_SIZE + self.snap_size)
+        self.mv = memoryview(self.buf)
+        self.saves = 0
+        self.failures = 0
+
+    @property
+    def can_resume(self):
+        return self.snap_size > 0
+
+    # -- the armed flag (pad only) -----------------------------------------------------------------
+
+    def set_armed_flag(self, text="armed"):
+        try:
+            with open(FLAG_FILE, "w") as f:
+                f.write(text)
+        except OSError:
+            self.failures += 1
+
+    def armed_flag(self):
+        try:
+            with open(FLAG_FILE) as f:
+                return f.read() or "armed"
+        except OSError:
+            return None
+
+    def clear_armed_flag(self):
+        import os
+
+        try:
+            os.remove(FLAG_FILE)
+        except OSError:
+            pass
+
+    # -- the resume record -------------------------------------------------------------------------
+
+    def save(self, phase, fc, sample, fc_start, event=True):
+        """Write the record (at safe points). ``event`` False: the periodic save, RTC only."""
+        if not event and self.rtc is None:
+            return False
+        buf = self.buf
+        n = 0
+        if fc is not None and self.snap_size and hasattr(fc, "save_state"):
+            fc.save_state(self.mv[_HDR_SIZE:])
+            n = self.snap_size
+        state = fc.state if fc is not None else 0
+        crc = crc32(self.mv[_HDR_SIZE:_HDR_SIZE + n]) & 0xFFFFFFFF
+        struct.pack_into(_HDR_FMT, buf, 0, MAGIC, phase, state, sample, fc_start, n, crc)
+        try:
+            if self.rtc is not None:
+                self.rtc.memory(buf)
+            else:
+                with open(RECORD_FILE, "wb") as f:
+                    f.write(buf)
+            self.saves += 1
+            return True
+        except Exception:  # noqa: BLE001 - a failed save must not stop a flight
+            self.failures += 1
+            return False
+
+    def clear(self):
+        if self.rtc is not None:
+            try:
+                self.rtc.memory(b"")
+            except Exception:  # noqa: BLE001
+                pass
+        else:
+            import os
+
+            try:
+                os.remove(RECORD_FILE)
+            except OSError:
+                pass
+
+    def load(self):
+        """The saved record as a dict (phase, state, sample, fc_start, snapshot bytes), or None."""
+        try:
+            if self.rtc is not None:
+                data = bytes(self.rtc.memory())
+            else:
+                with open(RECORD_FILE, "rb") as f:
+                    data = f.read()
+        except Exception:  # noqa: BLE001
+            return None
+        if len(data) < _HDR_SIZE:
+            return None
+        magic, phase, state, sample, fc_start, n, crc = struct.unpack_from(_HDR_FMT, data, 0)
+        if magic != MAGIC or len(data) < _HDR_SIZE + n:
+            return None
+        snap = data[_HDR_SIZE:_HDR_SIZE + n]
+        if crc32(snap) & 0xFFFFFFFF != crc:
+            return None
+        return {"phase": phase, "state": state, "sample": sample, "fc_start": fc_start, "snapshot": snap}
+
+    def restore(self, fc, record):
+        """Put a saved snapshot into ``fc``; True when the flight computer accepted it."""
+        snap = record["snapshot"]
+        if not snap or not hasattr(fc, "restore_state") or len(snap) != self.snap_size:
+            return False
+        try:
+            return bool(fc.restore_state(bytearray(snap)))
+        except Exception:  # noqa: BLE001
+            return False
