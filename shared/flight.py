@@ -91,13 +91,15 @@ _APOGEE_DECEL_MAX_MMPS2 = const(98067)
 _RECORD_FORMAT = "<BBBiiiiiiiiiiiiiiiii"
 _RECORD_VERSION = const(1)
 STATE_RECORD_SIZE = const(71)  # struct.calcsize(_RECORD_FORMAT)
-_RESUME_SETTLE_MS = const(1000)
+_RESUME_SETTLE_MS = const(2000)
+_FALSE_LAUNCH_MS = const(10000)  # a launch not proven within this, near the pad, was not one
 
 # Error flags in ``errors``.
 ERR_ORIENTATION = const(1)  # pad accelerometer reading is not about +1 g
 ERR_ACCEL_CLIPPED = const(2)  # at least one reading at the accelerometer's full scale
 ERR_PAD_BARO_STEP = const(4)  # the barometer jumped on the pad (re-based)
 ERR_BARO_ERRATIC = const(8)  # repeated jumps on the pad: a faulty barometer; launch is forbidden
+ERR_FALSE_LAUNCH = const(16)  # a launch without proof of flight went back to pad mode
 
 
 def _ema(avg, x, dt_ms, tau_ms):
@@ -221,8 +223,13 @@ class FlightComputer:
             self.det.gate_alt_mm = 0
             self.det.gate_acc_mmps2 = 0
         self._set_model(state)
-        if state >= DROGUE or self.diverged:
-            have &= HAVE_BARO  # under a parachute the orientation is unknown; see _set_model
+        resuming = self.now_ms < self.settle_until_ms
+        if resuming:
+            self.det.model = MODEL_PLAIN  # after a reset the saved velocity may be old: re-learn
+        if state >= DROGUE or self.diverged or resuming:
+            # under a parachute the orientation is unknown; a diverged or resumed filter follows
+            # the barometer alone (see _set_model, restore_state)
+            have &= HAVE_BARO
         if dt_us:
             enabled = self._apogee_enabled()
             if cfg.baro_lag_ms and have & HAVE_BARO:
@@ -448,6 +455,8 @@ class FlightComputer:
     def _ascent(self, apogee):
         cfg = self.cfg
         kf = self.kf
+        if self._false_launch():
+            return
         fast = kf.vel_q4 >> 4 > cfg.mach_lockout_mmps
         if self.state == BOOST:
             if kf.acc_q4 < -2500 * 16 or self.now_ms - self.launch_ms > cfg.max_boost_ms:
@@ -467,6 +476,26 @@ class FlightComputer:
                 self._fire_drogue()
             elif cfg.backup_drogue_ms and self.now_ms - self.launch_ms >= cfg.backup_drogue_ms:
                 self._fire_drogue()
+
+    def _false_launch(self):
+        """A launch that has not proven a flight within _FALSE_LAUNCH_MS while the rocket is still
+        near the pad (a push on the rail, a drop) goes back to pad mode, with its calibration."""
+        cfg = self.cfg
+        if self.flight_proven or self.now_ms - self.launch_ms < _FALSE_LAUNCH_MS:
+            return False
+        if cfg.has_baro:
+            near = -cfg.proof_climb_mm < self.baro_agl_mm < cfg.proof_climb_mm
+        else:
+            near = -cfg.proof_speed_mmps < self.vel_mmps < cfg.proof_speed_mmps
+        if not near:
+            return False
+        self.state = PAD
+        self.launched = False
+        self.boost_ms = self.boost_max_ms = self.climb_ms = 0
+        self.max_agl_mm = self.max_vel_mmps = 0
+        self.errors |= ERR_FALSE_LAUNCH
+        self.kf.reset(self.ground_alt_mm + self.baro_agl_mm if cfg.has_baro else self.kf.alt_q4 >> 4)
+        return True
 
     def _fire_drogue(self):
         self.drogue_fired_ms = self.now_ms

@@ -269,3 +269,22 @@ def test_restore_rejects_a_blank_or_pad_record():
     record = bytearray(STATE_RECORD_SIZE)
     fresh.save_state(record)  # still on the pad: nothing to resume, the board calibrates anew
     assert not fc.restore_state(record) and fc.state == PAD
+
+
+def test_false_launch_returns_to_pad_and_a_real_flight_still_flies():
+    from shared.flight import BOOST, ERR_FALSE_LAUNCH
+
+    dts, alts, accs, _ = pad(40, seed=11)
+    accs[500:520] += 3 * G  # a 0.4 s push of 3 g on the rail: counts as a boost, nothing climbs
+    dts2, alts2, accs2, truth, apogee = _flight(rate=50, seed=12, after_apogee_s=60)
+    alts2 = alts2 - alts2[0] + alts[-1]
+    fc = FlightComputer(load_config({"backup_drogue_s": 40}))  # timed from the real launch
+    states, drogue = [], None
+    for arrays in ((dts, alts, accs), (dts2, alts2, accs2)):
+        for i in range(len(arrays[0])):
+            fc.step(int(arrays[0][i]), int(arrays[1][i]), int(arrays[2][i]), HAVE_BOTH)
+            states.append(fc.state)
+            if fc.events & EV_DROGUE and arrays[0] is dts2:
+                drogue = i
+    assert BOOST in states[:len(dts)] and states[len(dts) - 1] == PAD and fc.errors & ERR_FALSE_LAUNCH
+    assert drogue is not None and abs(drogue - apogee) <= 15  # 0.3 s at 50 Hz
