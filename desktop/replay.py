@@ -120,8 +120,8 @@ def replay(log, config):
 def config_for(log, config_path=None, overrides=None):
     """The configuration for replaying ``log``: a JSON file, else defaults, plus CLI overrides;
     the sensors setting follows the columns present, and the accelerometer's range and the
-    barometer's lag come from the log's ``accel_range_g`` and ``baro_lag_ms`` metadata when the
-    configuration does not set them."""
+    barometer's lag and noise class come from the log's ``accel_range_g``, ``baro_lag_ms`` and
+    ``baro_noise`` metadata when the configuration does not set them."""
     values = {}
     if config_path:
         with open(config_path) as f:
@@ -132,6 +132,8 @@ def config_for(log, config_path=None, overrides=None):
     for key in ("accel_range_g", "baro_lag_ms"):
         if key not in values and log.metadata_float(key) is not None:
             values[key] = log.metadata_float(key)
+    if "baro_noise" not in values and "baro_noise" in log.metadata:
+        values["baro_noise"] = log.metadata["baro_noise"]
     if "sensors" not in (overrides or {}):
         has_baro = log.pressure_pa is not None or log.altitude_m is not None
         has_accel = log.has_accel

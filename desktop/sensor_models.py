@@ -459,6 +459,8 @@ def make_record(
         "board_rate_hz": r(board.rate_hz, 3),
         # the delay the board should compensate: static port + part filter + half a conversion
         "baro_lag_ms": int(round((board.port_lag_s + baro.lag_s + 0.5 / baro.odr_hz) * 1000)),
+        # every part profile is a modern barometer with well under a metre of noise
+        "baro_noise": "low" if baro.noise_pa < 20.0 else "standard",
         "accel_range_g": r(acc.full_scale_mps2 / G0, 1) if math.isfinite(acc.full_scale_mps2) else None,
         "pad_s": r(board.pad_s, 3),
         "true_max_mach": r(traj.max_mach, 3),

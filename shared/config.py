@@ -41,6 +41,9 @@ CHOICES = {
     "apogee_rule": ("velocity", ("velocity", "seed"),
         "velocity: estimated speed reaches zero; seed: altitude falls twice"),
     "sensors": ("both", ("both", "baro", "accel"), "which sensors the board has"),
+    "baro_noise": ("standard", ("standard", "low"),
+        "standard: gains for 6 m of barometer noise (transients included, as AltOS); low: a modern "
+        "part behind a good static port (BMP390, MS5611), trusted more near apogee"),
 }
 
 
@@ -75,6 +78,7 @@ class Config:
         self.seed_rule = v["apogee_rule"] == "seed"
         self.has_baro = v["sensors"] in ("both", "baro")
         self.has_accel = v["sensors"] in ("both", "accel")
+        self.low_noise_baro = v["baro_noise"] == "low"
 
 
 def _is_number(x):

@@ -33,7 +33,7 @@ except ImportError:
 
 from shared.apogee import SeedRule, VelocityRule
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
-from shared.gains_table import PROJECT
+from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
 
 # States, in flight order.
 PAD = const(0)
@@ -117,8 +117,10 @@ def _ema(avg, x, dt_ms, tau_ms):
 class FlightComputer:
     """The flight state machine over the Kalman detector. See the module docstring."""
 
-    def __init__(self, config, ground_alt_mm=None, table=PROJECT):
+    def __init__(self, config, ground_alt_mm=None, table=None):
         self.cfg = config
+        if table is None:
+            table = PROJECT_LOW_NOISE if config.low_noise_baro else PROJECT
         rule = SeedRule() if config.seed_rule else VelocityRule()
         self.det = Detector(table, rule)
         self.kf = self.det.kf

@@ -63,6 +63,11 @@ SIGMA_JERK_COAST = 2.0
 # pseudo-measurement of the acceleration with SIGMA_GRAVITY m/s^2, in place of the accelerometer,
 # whose bias and tilt no longer matter.
 SIGMA_GRAVITY_MPS2 = 2.0
+# A quiet barometer (a modern part behind a good static port: BMP390, MS5611, about 0.5 m of noise)
+# is trusted more near apogee: the PROJECT_LOW_NOISE table's late-coast gains assume this noise.
+# There, model errors (drag of a light rocket, weathercocking in wind) are larger than the noise,
+# and 6 m gains let them make apogee 0.1-0.25 s late (the C6 Monte-Carlo, docs/BENCHMARKS.md).
+SIGMA_ALT_LOW_NOISE_M = 2.0
 RATES_HZ = (10, 20, 25, 50, 100, 200)
 
 # Integer gain format: K ~= m / 2**s with |m| < 2**14 and 14 <= s <= 28, the domain in which
@@ -151,13 +156,14 @@ def bias_gain(t_s, sigma_jerk=SIGMA_JERK_COAST, sigma_bias=SIGMA_BIAS, sigma_acc
     return p_prior @ h.T @ np.linalg.inv(h @ p_prior @ h.T + r)
 
 
-def project_gains(rate_hz):
-    """The gain matrices (both, baro, accel, coast-with-bias) of the project family at ``rate_hz``."""
+def project_gains(rate_hz, sigma_alt_late_m=SIGMA_ALT_M):
+    """The gain matrices (both, baro, accel, coast-with-bias, late coast) of the project family at
+    ``rate_hz``; ``sigma_alt_late_m`` is the barometer noise the late-coast gains assume."""
     t_s = 1.0 / rate_hz
     both = steady_gain(t_s, H_BOTH, np.diag([SIGMA_ALT_M**2, SIGMA_ACCEL_MPS2**2]))
     baro = steady_gain(t_s, H_BARO, np.array([[SIGMA_ALT_M**2]]))
     accel = steady_gain(t_s, H_ACCEL, np.array([[SIGMA_ACCEL_MPS2**2]]))
-    late = steady_gain(t_s, H_BOTH, np.diag([SIGMA_ALT_M**2, SIGMA_GRAVITY_MPS2**2]))
+    late = steady_gain(t_s, H_BOTH, np.diag([sigma_alt_late_m**2, SIGMA_GRAVITY_MPS2**2]))
     return both, baro, accel, bias_gain(t_s), late
 
 
@@ -232,6 +238,9 @@ def render():
         % (SIGMA_ALT_M, SIGMA_ACCEL_MPS2, SIGMA_ACCEL_COAST_MPS2),
         "sigma_bias = %g m/s^2 per sqrt(s); late coast: sigma_gravity = %g m/s^2."
         % (SIGMA_BIAS, SIGMA_GRAVITY_MPS2),
+        "PROJECT_LOW_NOISE: the same, but the late-coast gains assume sigma_alt = %g m"
+        % SIGMA_ALT_LOW_NOISE_M,
+        "(configuration baro_noise = 'low').",
         "SEED: the seed's recursion (P = I, 20 iterations, R = diag(35.8229, 0.0012),",
         "Q = diag(0, 0, 1), T = 0.05 s); only for 20 Hz; no bias or late-coast model (its combined gains).",
         '"""',
@@ -240,6 +249,11 @@ def render():
     ]
     for rate in RATES_HZ:
         lines.extend(_row_lines(encode_row(rate, *project_gains(rate))))
+    lines.append(")")
+    lines.append("")
+    lines.append("PROJECT_LOW_NOISE = (")
+    for rate in RATES_HZ:
+        lines.extend(_row_lines(encode_row(rate, *project_gains(rate, SIGMA_ALT_LOW_NOISE_M))))
     lines.append(")")
     lines.append("")
     lines.append("SEED = (")
