@@ -18,6 +18,10 @@ Examples::
     python -m desktop montecarlo --flights 200 --seed 1 --plots out/
     python -m desktop montecarlo --seed 1 --export-csv flight7.csv --flight 7
     python -m desktop montecarlo --params seed --seed 1 --export-csv seed.csv --flight 0
+    python -m desktop montecarlo --rocket examples/rockets/k400_dual_deploy.toml --flights 200 --seed 1
+
+``--rocket`` runs the Monte-Carlo over a rocket design instead (desktop/rocket_montecarlo.py):
+dispersed RocketPy flights, the sensor models, the flight computer and the comparison methods.
 
 ``--params seed`` flies the seed's default flight (160 m/s^2, 15 s) every time, only the noise
 changing; its default pad is 0 s, the seed exactly. The Monte-Carlo default pad is 2 s.
@@ -434,7 +438,8 @@ def register(subparsers):
     p.add_argument("--params", choices=("montecarlo", "seed"), default="montecarlo",
                    help="drawn parameters (default) or the seed's default flight every time")
     p.add_argument("--pad-s", type=float, default=None,
-                   help="seconds at rest before ignition (default 2 for montecarlo, 0 for seed)")
+                   help="seconds at rest before ignition (default 2 for montecarlo, 0 for seed; with "
+                        "--rocket: the rocket file's [board] pad_s)")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.add_argument("--plots", metavar="DIR", help="write the figures (PNG) to DIR")
     p.add_argument("--no-detect", action="store_true",
@@ -442,11 +447,28 @@ def register(subparsers):
     p.add_argument("--export-csv", metavar="PATH",
                    help="write flight --flight as a flight CSV and exit (no study)")
     p.add_argument("--flight", type=int, default=0, help="flight index for --export-csv (default 0)")
+    r = p.add_argument_group(
+        "Monte-Carlo over a rocket design (desktop/rocket_montecarlo.py, docs/SIMULATION.md)")
+    r.add_argument("--rocket", metavar="ROCKET.toml",
+                   help="fly dispersed RocketPy flights of this rocket instead of the seed's model")
+    r.add_argument("--workers", type=int, metavar="K", help="processes (default: all cores)")
+    r.add_argument("--sensors", metavar="PROFILE",
+                   help="sensor profile BARO+ACCEL (default: the rocket file's [board] sensors)")
+    r.add_argument("--max-wind-mps", type=float, metavar="V",
+                   help="wind speed drawn uniformly in 0..V m/s (default 9)")
     p.set_defaults(func=main)
     return p
 
 
 def main(args) -> int:
+    if getattr(args, "rocket", None):
+        from desktop import rocket_montecarlo
+
+        return rocket_montecarlo.main(args)
+    for flag in ("workers", "sensors", "max_wind_mps"):
+        if getattr(args, flag, None) is not None:
+            print(f"montecarlo: error: --{flag.replace('_', '-')} needs --rocket", file=sys.stderr)
+            return 2
     pad_s = DEFAULT_PAD_S[args.params] if args.pad_s is None else args.pad_s
     if args.export_csv:
         batch = export_csv(args.export_csv, args.params, args.seed, args.flight, pad_s)
