@@ -210,7 +210,7 @@ class FlightComputer:
         self._set_baro_weight()
         if self._resume_pending and have & HAVE_BARO:
             self._resume_pending = False
-            kf.alt_q4 = alt_mm << 4
+            kf.set_altitude(alt_mm)
         # gates from 0.5 s after burnout: the motor's tail-off is a real, fast change
         settling = self.now_ms < self.settle_until_ms or self.now_ms - self.burnout_ms < _GATE_START_MS
         coasting = state == FAST or state == COAST

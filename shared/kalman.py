@@ -90,6 +90,10 @@ class Kalman:
         self.acc_q4 = _clamp(_clamp(acc_mmps2, MEAS_LIMIT_MM) << 4, RATE_LIMIT_Q4)
         self.bias_q4 = 0
 
+    def set_altitude(self, alt_mm):
+        """Move the altitude state to ``alt_mm`` (clamped), keeping velocity and acceleration."""
+        self.alt_q4 = _clamp(_clamp(alt_mm, MEAS_LIMIT_MM) << 4, ALT_LIMIT_Q4)
+
     def predict(self, row):
         """Advance the state by one period T = 1 / row[0] s (constant-acceleration model)."""
         rate = row[0]
