@@ -118,16 +118,22 @@ def replay(log, config):
 
 
 def config_for(log, config_path=None, overrides=None):
-    """The configuration for replaying ``log``: a JSON file, else defaults, plus CLI overrides;
-    the sensors setting follows the columns present, and the accelerometer's range and the
-    barometer's lag and noise class come from the log's ``accel_range_g``, ``baro_lag_ms`` and
-    ``baro_noise`` metadata when the configuration does not set them."""
+    """The configuration for replaying ``log``: a JSON file, else the board's own configuration
+    when the log is a decoded board log (``# board_config:`` metadata), else defaults; then CLI
+    overrides. The sensors setting follows the columns present, and the accelerometer's range and
+    the barometer's lag and noise class come from the log's ``accel_range_g``, ``baro_lag_ms``
+    and ``baro_noise`` metadata when the configuration does not set them."""
     values = {}
     if config_path:
         with open(config_path) as f:
             raw = f.read()
         load_config_file(config_path)  # validates, with one-line errors
         values = dict(json.loads(raw))
+    elif "board_config" in log.metadata:
+        try:
+            values = json.loads(log.metadata["board_config"])
+        except ValueError as exc:
+            raise ConfigError("%s: metadata board_config is not valid JSON: %s" % (log.path, exc)) from None
     values.update(overrides or {})
     for key in ("accel_range_g", "baro_lag_ms"):
         if key not in values and log.metadata_float(key) is not None:

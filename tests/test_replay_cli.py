@@ -59,3 +59,17 @@ def test_bad_config_is_one_line(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "desktop", "replay", str(FLIGHT), "--config", str(cfg)],
                           capture_output=True, text=True, cwd=Path(__file__).parent.parent)
     assert proc.returncode == 2 and "main_deploy_m" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_decoded_board_log_replays_with_the_board_configuration(tmp_path, capsys):
+    # a decoded board log carries its configuration as metadata: replay uses it without --config
+    text = FLIGHT.read_text()
+    with_config = tmp_path / "decoded.csv"
+    with_config.write_text('# board_config: {"main_deploy_m":400}\n' + text)
+    assert main(["replay", str(with_config), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["config"]["main_deploy_m"] == 400
+    bad = tmp_path / "bad.csv"
+    bad.write_text("# board_config: {main_deploy_m: 400\n" + text)
+    assert main(["replay", str(bad)]) == 2
+    assert "board_config is not valid JSON" in capsys.readouterr().err
