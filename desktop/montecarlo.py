@@ -195,30 +195,33 @@ def run_study(n_flights: int, seed: int, *, mode: str = "montecarlo", pad_s: flo
     return StudyResult(parameters, np.arange(n_flights), apo_t, apo_m, det, vel, elapsed)
 
 
+def format_cell(key: str, v) -> str:
+    """One table cell: counts as integers, the signed mean with a sign, "-" for no value."""
+    if key.startswith("n_"):
+        return f"{v:d}"
+    if v is None or not math.isfinite(v):
+        return "-"
+    if key == "mean_error_s":
+        return f"{v:+.3f}"
+    if key == "mean_abs_velocity_mps":
+        return f"{v:.2f}"
+    return f"{v:.3f}"
+
+
+def table_lines(title: str, table: dict) -> list[str]:
+    """The text table: a title line, the header, one row per method (shared with the rocket study)."""
+    name_w = max(len("method"), *(len(n) for n in table))
+    lines = [title, "  ".join([f"{'method':<{name_w}}"] + [f"{h:>13}" for h in _HEADERS])]
+    for name, m in table.items():
+        lines.append("  ".join([f"{name:<{name_w}}"] + [f"{format_cell(k, m[k]):>13}" for k in METRIC_KEYS]))
+    return lines
+
+
 def format_table(result: StudyResult) -> str:
     p = result.parameters
-    name_w = max(len("method"), *(len(n) for n in result.table))
-    lines = [
-        f"{p['flights']} flights, seed {p['seed']}, params {p['params']}, pad {p['pad_s']:g} s, "
-        f"flight {p['t_length_s']:g} s; error = detection - true apogee (s)",
-        "  ".join([f"{'method':<{name_w}}"] + [f"{h:>13}" for h in _HEADERS]),
-    ]
-    for name, m in result.table.items():
-        cells = []
-        for key in METRIC_KEYS:
-            v = m[key]
-            if key.startswith("n_"):
-                cells.append(f"{v:>13d}")
-            elif not math.isfinite(v):
-                cells.append(f"{'-':>13}")
-            elif key == "mean_error_s":
-                cells.append(f"{v:>+13.3f}")
-            elif key == "mean_abs_velocity_mps":
-                cells.append(f"{v:>13.2f}")
-            else:
-                cells.append(f"{v:>13.3f}")
-        lines.append("  ".join([f"{name:<{name_w}}"] + cells))
-    return "\n".join(lines)
+    title = (f"{p['flights']} flights, seed {p['seed']}, params {p['params']}, pad {p['pad_s']:g} s, "
+             f"flight {p['t_length_s']:g} s; error = detection - true apogee (s)")
+    return "\n".join(table_lines(title, result.table))
 
 
 # --------------------------------------------------------------------------------------------------

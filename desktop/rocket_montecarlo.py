@@ -38,13 +38,11 @@ from pathlib import Path
 import numpy as np
 
 from desktop import baselines
-from desktop.montecarlo import METRIC_KEYS, metrics
+from desktop.montecarlo import METRIC_KEYS, format_cell, metrics, table_lines
 
 METHODS = ("flight-computer", "seed-kalman/seed", "boxcar/seed", "butterworth/seed")
 DEFAULT_PROFILE = "bmp390+lsm6dso"
 BOXCAR_SECONDS = baselines.BOXCAR_WINDOW * baselines.SEED_T_S  # 40 samples at 20 Hz = 2.0 s
-_HEADERS = ("mean|err| s", "mean err s", "median|err| s", "p95|err| s", "max|err| s",
-            "mean|v| m/s", "early>1s", "none")
 _MD_HEADERS = ("mean \\|err\\| s", "mean err s", "median \\|err\\| s", "p95 \\|err\\| s", "max \\|err\\| s",
                "mean \\|v\\| m/s", ">1 s early", "none")
 
@@ -559,18 +557,6 @@ def run_rocket_study(settings: StudySettings, n_flights: int, workers: int | Non
 # Output
 
 
-def _cell(key, v):
-    if key.startswith("n_"):
-        return f"{v:d}"
-    if v is None or not math.isfinite(v):
-        return "-"
-    if key == "mean_error_s":
-        return f"{v:+.3f}"
-    if key == "mean_abs_velocity_mps":
-        return f"{v:.2f}"
-    return f"{v:.3f}"
-
-
 def summary_lines(result: RocketStudyResult) -> list[str]:
     s = result.fc_summary
     n = s["n_flights"]
@@ -587,15 +573,10 @@ def summary_lines(result: RocketStudyResult) -> list[str]:
 
 def format_table(result: RocketStudyResult) -> str:
     p = result.parameters()
-    name_w = max(len("method"), *(len(n) for n in result.table))
-    lines = [
-        f"{p['name']} ({p['rocket']}): {p['flights']} flights, seed {p['seed']}, {p['sensor_profile']} at "
-        f"{p['rate_hz']:g} Hz, pad {p['pad_s']:g} s; error = detection - true apogee (s)",
-        "  ".join([f"{'method':<{name_w}}"] + [f"{h:>13}" for h in _HEADERS]),
-    ]
-    for name, m in result.table.items():
-        lines.append("  ".join([f"{name:<{name_w}}"] + [f"{_cell(k, m[k]):>13}" for k in METRIC_KEYS]))
-    lines += summary_lines(result)
+    title = (f"{p['name']} ({p['rocket']}): {p['flights']} flights, seed {p['seed']}, "
+             f"{p['sensor_profile']} at {p['rate_hz']:g} Hz, pad {p['pad_s']:g} s; "
+             "error = detection - true apogee (s)")
+    lines = table_lines(title, result.table) + summary_lines(result)
     return "\n".join(lines)
 
 
@@ -603,7 +584,7 @@ def format_markdown(result: RocketStudyResult) -> str:
     lines = ["| method | " + " | ".join(_MD_HEADERS) + " |", "|---" * (len(_MD_HEADERS) + 1) + "|"]
     for name, m in result.table.items():
         shown = f"**{name}**" if name == "flight-computer" else name
-        lines.append(f"| {shown} | " + " | ".join(_cell(k, m[k]) for k in METRIC_KEYS) + " |")
+        lines.append(f"| {shown} | " + " | ".join(format_cell(k, m[k]) for k in METRIC_KEYS) + " |")
     return "\n".join(lines)
 
 

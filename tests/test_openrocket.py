@@ -1,12 +1,12 @@
 """OpenRocket export import: units, derived columns, events, errors, and the round trip
 RocketPy trajectory -> OpenRocket export -> import -> the same sensor record."""
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from desktop.cli import main as run_cli
 from desktop.flightcsv import read_flight_csv
 from desktop.openrocket import OpenRocketError, read_openrocket, write_openrocket_export
 from desktop.rocket_file import load_rocket
@@ -251,16 +251,6 @@ def test_file_errors(tmp_path):
 
 # --------------------------------------------------------------------------------------------------
 # The command
-
-
-def run_cli(argv):
-    from desktop import simulate
-
-    parser = argparse.ArgumentParser(prog="python -m desktop")
-    sub = parser.add_subparsers(dest="command")
-    simulate.register(sub)
-    args = parser.parse_args(argv)
-    return args.func(args)
 
 
 def test_simulate_openrocket(tmp_path, capsys):

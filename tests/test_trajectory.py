@@ -4,13 +4,13 @@ the axial specific force, events, the example rockets, and the `simulate` comman
 One RocketPy flight per scenario, shared through module-scoped fixtures (the import costs ~1 s).
 """
 
-import argparse
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from desktop.cli import main as run_cli
 from desktop.flightcsv import read_flight_csv
 from desktop.rocket_file import load_rocket
 from desktop.trajectory import (
@@ -239,16 +239,6 @@ def test_part_profiles_configure_rocketpy_sensors():
 
 # --------------------------------------------------------------------------------------------------
 # The command
-
-
-def run_cli(argv):
-    from desktop import simulate
-
-    parser = argparse.ArgumentParser(prog="python -m desktop")
-    sub = parser.add_subparsers(dest="command")
-    simulate.register(sub)
-    args = parser.parse_args(argv)
-    return args.func(args)
 
 
 def test_simulate_command(tmp_path, capsys):
