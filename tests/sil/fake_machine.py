@@ -140,6 +140,19 @@ def install(origin_us=0):
     sys.modules["micropython"] = fake_micropython
 
 
+def install_world(frames_path):
+    """Bus 0 with a BMP390 at 0x77 and an ADXL375 at 0x53, fed by the frames file; returns the
+    World (tests/sil/world.py). Call after ``install()``."""
+    from desktop.fakes import FakeADXL375, FakeBMP390, FakeI2CBus
+    from tests.sil.world import World
+
+    bus = FakeI2CBus()
+    world = World(frames_path, bus.add(0x77, FakeBMP390()), bus.add(0x53, FakeADXL375()))
+    BUSES[0] = bus
+    WORLD[0] = world
+    return world
+
+
 class Pin:
     IN = 0
     OUT = 1

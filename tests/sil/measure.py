@@ -51,15 +51,7 @@ def measure(opts):
 
     import micropython
 
-    from desktop.fakes import FakeADXL375, FakeBMP390, FakeI2CBus
-    from tests.sil.world import World
-
-    bus = FakeI2CBus()
-    baro = bus.add(0x77, FakeBMP390())
-    accel = bus.add(0x53, FakeADXL375())
-    world = World(opts["frames"], baro, accel)
-    fake_machine.BUSES[0] = bus
-    fake_machine.WORLD[0] = world
+    fake_machine.install_world(opts["frames"])
     import os
 
     os.chdir(opts["workdir"])

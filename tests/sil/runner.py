@@ -22,16 +22,8 @@ def _forget_firmware():
 
 def run(opts):
     fake_machine.install(opts.get("origin_us", 0))
-    from desktop.fakes import FakeADXL375, FakeBMP390, FakeI2CBus
-    from tests.sil.world import World
-
     repo = opts["repo"]
-    bus = FakeI2CBus()
-    baro = bus.add(0x77, FakeBMP390())
-    accel = bus.add(0x53, FakeADXL375())
-    world = World(opts["frames"], baro, accel)
-    fake_machine.BUSES[0] = bus
-    fake_machine.WORLD[0] = world
+    world = fake_machine.install_world(opts["frames"])
     for pin, level, at_us in opts.get("inputs", []):
         if at_us <= 0:
             fake_machine.set_input(pin, level)
