@@ -130,7 +130,21 @@ class FakeI2CDevice:
             self.regs[reg] = value
 
 
-class FakeI2CBus:
+class AllocatingReads:
+    """machine.I2C's convenience reads that return new bytes, built on the ``*_into`` methods."""
+
+    def readfrom_mem(self, addr, memaddr, nbytes, addrsize=8):
+        buf = bytearray(nbytes)
+        self.readfrom_mem_into(addr, memaddr, buf)
+        return bytes(buf)
+
+    def readfrom(self, addr, nbytes, stop=True):
+        buf = bytearray(nbytes)
+        self.readfrom_into(addr, buf)
+        return bytes(buf)
+
+
+class FakeI2CBus(AllocatingReads):
     """A ``machine.I2C`` stand-in: ``bus.add(addr, device)``, then hand ``bus`` to a driver."""
 
     def __init__(self):
@@ -179,16 +193,6 @@ class FakeI2CBus:
 
     def readfrom_into(self, addr, buf, stop=True):
         self._device(addr).read_current(buf)
-
-    def readfrom_mem(self, addr, memaddr, nbytes, addrsize=8):
-        buf = bytearray(nbytes)
-        self.readfrom_mem_into(addr, memaddr, buf)
-        return bytes(buf)
-
-    def readfrom(self, addr, nbytes, stop=True):
-        buf = bytearray(nbytes)
-        self.readfrom_into(addr, buf)
-        return bytes(buf)
 
     def scan(self):
         return sorted(a for a in self.devices if not self._nack.get(a, 0))

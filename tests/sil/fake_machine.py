@@ -20,6 +20,7 @@
 import sys
 from array import array
 
+from desktop.fakes.i2c_bus import AllocatingReads
 from tests.sil import fake_micropython, fake_time
 
 PWRON_RESET = 1
@@ -250,7 +251,7 @@ class PWM:
         self.pin.value(0)
 
 
-class I2C:
+class I2C(AllocatingReads):
     def __init__(self, id=0, scl=None, sda=None, freq=400000, timeout=50000):
         if id not in BUSES:
             raise OSError(19)
@@ -279,16 +280,6 @@ class I2C:
     def readfrom_into(self, addr, buf, stop=True):
         self._cost(1 + len(buf))
         self.bus.readfrom_into(addr, buf)
-
-    def readfrom_mem(self, addr, memaddr, nbytes, addrsize=8):
-        buf = bytearray(nbytes)
-        self.readfrom_mem_into(addr, memaddr, buf)
-        return bytes(buf)
-
-    def readfrom(self, addr, nbytes, stop=True):
-        buf = bytearray(nbytes)
-        self.readfrom_into(addr, buf)
-        return bytes(buf)
 
     def scan(self):
         return self.bus.scan()
