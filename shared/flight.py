@@ -211,8 +211,9 @@ class FlightComputer:
         if self._resume_pending and have & HAVE_BARO:
             self._resume_pending = False
             kf.set_altitude(alt_mm)
+        resuming = self.now_ms < self.settle_until_ms
         # gates from 0.5 s after burnout: the motor's tail-off is a real, fast change
-        settling = self.now_ms < self.settle_until_ms or self.now_ms - self.burnout_ms < _GATE_START_MS
+        settling = resuming or self.now_ms - self.burnout_ms < _GATE_START_MS
         coasting = state == FAST or state == COAST
         if coasting and acc_kin > -_G_MMPS2 // 2:
             # after burnout drag only decelerates: an axial specific force above +0.5 g is the
@@ -225,7 +226,6 @@ class FlightComputer:
             self.det.gate_alt_mm = 0
             self.det.gate_acc_mmps2 = 0
         self._set_model(state)
-        resuming = self.now_ms < self.settle_until_ms
         if resuming:
             self.det.model = MODEL_PLAIN  # after a reset the saved velocity may be old: re-learn
         if state >= DROGUE or self.diverged or resuming:
@@ -261,7 +261,6 @@ class FlightComputer:
     def _start(self, alt_mm, accel_mmps2, have):
         self.started = True
         self._blk_ref_mm = alt_mm if have & HAVE_BARO else 0
-        self._blk_start_ms = 0
         if not self.ground_fixed:
             self.ground_alt_mm = self._blk_ref_mm
         self.det.start(self._blk_ref_mm, 0)
