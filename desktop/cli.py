@@ -10,10 +10,10 @@ import importlib
 
 # (command name, module defining it); the module's register() adds the sub-parser.
 COMMANDS = (
-    ("montecarlo", "desktop.montecarlo"),
-    ("replay", "desktop.replay"),
-    ("simulate", "desktop.simulate"),
-    ("logdecode", "desktop.logdecode"),
+    ("montecarlo", "desktop.study.seed_study"),
+    ("replay", "desktop.review.replay"),
+    ("simulate", "desktop.sim.simulate"),
+    ("logdecode", "desktop.io.logdecode"),
 )
 
 

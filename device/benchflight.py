@@ -7,7 +7,7 @@ outputs at the detection times.
 ``bench.bin`` (written by ``tools/deploy.py bench`` from a flight CSV): BENCH_MAGIC, u32 record
 count, u32 header length, header JSON (``config``: the flight configuration the desktop replay
 used, ``source``), then BENCH_REC records: ``dt_us``, ``alt_mm``, ``accel_mmps2``, ``have``:
-exactly what ``desktop.replay`` gives ``FlightComputer.step()``, so the board must print the
+exactly what ``desktop.review.replay`` gives ``FlightComputer.step()``, so the board must print the
 same events at the same samples.
 
 The sensors are replaced by the file; everything downstream is the flight code: the state machine,

@@ -1,6 +1,6 @@
 """Flight log: fixed-size binary records, buffered in RAM blocks, written to flash at safe points.
 
-Portable (MicroPython and CPython): the desktop decoder (``desktop/logdecode.py``) imports the
+Portable (MicroPython and CPython): the desktop decoder (``desktop/io/logdecode.py``) imports the
 format constants from here.
 
 File layout (``flight.log``)::

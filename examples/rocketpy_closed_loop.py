@@ -19,7 +19,7 @@ sys.path.insert(0, str(ROOT))
 
 from rocketpy import Environment, Flight, Rocket, SolidMotor  # noqa: E402
 
-from desktop.rocketpy_trigger import FlightComputerTrigger, add_board_sensors  # noqa: E402
+from desktop.sim.rocketpy_trigger import FlightComputerTrigger, add_board_sensors  # noqa: E402
 
 
 def main(argv=None):

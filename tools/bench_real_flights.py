@@ -13,8 +13,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from desktop.flightcsv import read_flight_csv  # noqa: E402
-from desktop.replay import config_for, replay  # noqa: E402
+from desktop.io.flightcsv import read_flight_csv  # noqa: E402
+from desktop.review.replay import config_for, replay  # noqa: E402
 
 DATA = ROOT / "tests" / "data" / "flights" / "altos"
 

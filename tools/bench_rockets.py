@@ -5,7 +5,7 @@ rocket, the flight computer's extra rows, flights per minute, and the issue's go
     python tools/bench_rockets.py --flights 50 --workers 2 --json-dir out/bench
     python tools/bench_rockets.py --rockets k1000_min_dia c6_model
 
-The study is ``python -m desktop montecarlo --rocket ROCKET.toml`` (desktop/rocket_montecarlo.py);
+The study is ``python -m desktop montecarlo --rocket ROCKET.toml`` (desktop/study/rocket_study.py);
 docs/SIMULATION.md describes the dispersions, docs/BENCHMARKS.md holds the measured tables.
 """
 
@@ -18,7 +18,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from desktop import rocket_montecarlo as rm  # noqa: E402
+from desktop.study import rocket_study as rm  # noqa: E402
 
 ROCKETS = ("c6_model", "j360_sport", "k400_dual_deploy", "k1000_min_dia", "m1670_3km")
 SUPERSONIC = ("k1000_min_dia",)

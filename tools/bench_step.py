@@ -197,7 +197,7 @@ def main():
 
 if __name__ == "__main__":
     if "--all" in sys.argv and sys.implementation.name != "micropython":
-        from desktop.micropython_host import INTERPRETERS, run_micropython
+        from desktop.hosts.micropython import INTERPRETERS, run_micropython
 
         main()
         for interp in INTERPRETERS:

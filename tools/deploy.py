@@ -263,7 +263,7 @@ def cmd_info(args):
 
 
 def cmd_pull(args):
-    from desktop.logdecode import LogDecodeError, read_log, write_csv
+    from desktop.io.logdecode import LogDecodeError, read_log, write_csv
 
     out_dir = Path(args.out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -287,8 +287,8 @@ def cmd_pull(args):
 
 def bench_file(csv_path, config_path, out):
     """Convert a flight CSV to bench.bin; returns (desktop replay events, config)."""
-    from desktop.flightcsv import FlightCSVError, read_flight_csv
-    from desktop.replay import config_for, readings, replay
+    from desktop.io.flightcsv import FlightCSVError, read_flight_csv
+    from desktop.review.replay import config_for, readings, replay
     from device.benchflight import write_bench
     from shared.config import ConfigError
 

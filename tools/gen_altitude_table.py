@@ -287,7 +287,7 @@ P_MAX_Q4). Nodes are the ISA altitude minus half the chord sag of the adjacent s
 {len(table["bands"])} bands, {n_nodes} nodes, {n_ints} ints in all.
 
 Measured max |error| of the integer interpolation (this tool's numpy twin of
-shared.altitude.pressure_to_alt_mm; tests/test_altitude.py checks the function itself) vs the float
+shared.altitude.pressure_to_alt_mm; tests/shared/test_altitude.py checks the function itself) vs the float
 ISA model, every input from 1 kPa to 110 kPa in steps of 1/16 Pa, final rounding to mm included:
 - 30 kPa to 110 kPa: {table["err_hi_mm"]:.2f} mm
 - 1 kPa to 30 kPa:   {table["err_lo_mm"]:.2f} mm

@@ -11,7 +11,7 @@ One module per part, in the style of micropython-lib's drivers:
 
 Every driver takes a bus with the ``machine.I2C`` methods ``readfrom_mem_into``, ``writeto_mem``,
 ``writeto`` and ``readfrom_into`` (a ``machine.I2C``/``SoftI2C`` on a board,
-``desktop.fakes.FakeI2CBus`` in tests, ``desktop.smbus_i2c.SMBusI2C`` on a Raspberry Pi), checks the
+``desktop.sim.fakes.FakeI2CBus`` in tests, ``desktop.hosts.smbus_i2c.SMBusI2C`` on a Raspberry Pi), checks the
 part's identity in ``__init__`` and configures it for flight, and has a ``read()`` that stores the
 result in attributes that already exist (no tuples, no floats, no new attributes):
 

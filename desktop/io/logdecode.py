@@ -1,0 +1,342 @@
+"""Decode a board's flight log (``flight.log``) into a flight CSV: ``python -m desktop logdecode``.
+
+The log format is defined in ``device/flightlog.py``. The decoder checks every block (magic, CRC,
+sequence number), keeps the records of the flight computer that was in use at the end of the log
+(the board starts a fresh one every few seconds on the pad: ``device/flightloop.py``, "pad
+epochs"), and writes them as a flight CSV (docs/FLIGHT_CSV.md) that replays through the same
+``shared/`` code bit for bit:
+
+- ``time_s``: the sum of the board's integer ``dt_us``, 0 at the launch sample (or at the first
+  row without a launch): exact microseconds;
+- ``pressure_pa``: the board's Pa x 16 reading divided by 16, written with 4 decimals (exact), empty
+  where the sample had no fresh barometer reading;
+- ``accel_mps2``: the board's mm/s^2 reading / 1000 (exact at 4 decimals), empty when missing;
+- ``board_state``, ``board_events``, ``board_flags``, ``board_alt_q4``, ``board_vel_q4``,
+  ``board_acc_q4``: what the board decided (the filter columns are empty for the first rows, logged
+  while this flight computer was still the pad's "shadow"), ``temp_c``, ``board_work_us``.
+
+It also writes the board's configuration next to the CSV (``FLIGHT.config.json``): replay with
+``python -m desktop replay FLIGHT.csv --config FLIGHT.config.json``. ``--check`` does that replay
+and compares every sample's state and events (and filter state where logged) with the board's.
+"""
+
+import json
+import struct
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from device import flightlog as fl
+
+_REC_DTYPE = np.dtype([
+    ("dt_us", "<u4"), ("pressure_q4_pa", "<i4"), ("accel_mmps2", "<i4"), ("alt_q4", "<i4"),
+    ("vel_q4", "<i4"), ("acc_q4", "<i4"), ("have", "u1"), ("state", "u1"), ("events", "u1"),
+    ("flags", "u1"), ("temp_cdeg", "<i2"), ("work_us", "<u2"),
+])
+assert _REC_DTYPE.itemsize == fl.REC_SIZE
+HAVE_BARO = 1
+HAVE_ACCEL = 2
+EV_LAUNCH = 1
+
+
+class LogDecodeError(ValueError):
+    """A log that cannot be decoded; one line naming the file and the problem."""
+
+
+@dataclass
+class DecodedLog:
+    path: str
+    header: dict
+    records: np.ndarray  # structured, one per sample kept (sample order)
+    sample: np.ndarray  # board sample index of each record
+    fc_start_of_block: np.ndarray  # fc_start of the block each record came from
+    fc_start: int  # the flight computer whose decisions the records end with
+    summary: dict | None
+    notes: list = field(default_factory=list)  # note blocks (JSON)
+    problems: list = field(default_factory=list)  # bad/truncated blocks, gaps
+    blocks: int = 0
+    after_resume: int = 0  # records after a reset in flight (not decoded into rows)
+
+    @property
+    def config(self):
+        return self.header.get("config", {})
+
+
+def read_log(path):
+    """Parse and check a board log file; raises LogDecodeError for an unreadable file."""
+    p = Path(path)
+    try:
+        data = p.read_bytes()
+    except OSError as exc:
+        raise LogDecodeError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if not data.startswith(fl.FILE_MAGIC):
+        raise LogDecodeError(f"{path}: not a flight log (no {fl.FILE_MAGIC!r} magic)")
+    off = len(fl.FILE_MAGIC)
+    if len(data) < off + 8:
+        raise LogDecodeError(f"{path}: truncated header")
+    hlen, hcrc = struct.unpack_from(fl.FILE_HDR_FMT, data, off)
+    off += 8
+    text = data[off:off + hlen]
+    if len(text) != hlen or (fl.crc32(text) & 0xFFFFFFFF) != hcrc:
+        raise LogDecodeError(f"{path}: header damaged (length or CRC)")
+    try:
+        header = json.loads(text.decode())
+    except ValueError as exc:
+        raise LogDecodeError(f"{path}: header is not JSON: {exc}") from None
+    if header.get("format") != fl.FORMAT_VERSION:
+        raise LogDecodeError(f"{path}: log format {header.get('format')!r}, this decoder reads "
+                             f"{fl.FORMAT_VERSION}")
+    off += hlen
+    problems, notes = [], []
+    summary = None
+    recs, samples, fcs = [], [], []
+    nblocks = 0
+    last_seq = None
+    resumed_at = None
+    resumed_sample = None
+    while off < len(data):
+        block = data[off:off + fl.BLOCK_SIZE]
+        index = nblocks
+        off += fl.BLOCK_SIZE
+        nblocks += 1
+        if len(block) < fl.BLOCK_SIZE:
+            problems.append(f"block {index}: truncated ({len(block)} of {fl.BLOCK_SIZE} bytes): power lost "
+                            "while writing")
+            break
+        magic, seq, first, nrec, kind, fc_start, _crc = struct.unpack_from(fl.BLK_FMT, block, 0)
+        if magic != fl.BLK_MAGIC:
+            problems.append(f"block {index}: bad magic")
+            continue
+        if not fl.block_crc_ok(block):
+            problems.append(f"block {index} (seq {seq}): CRC mismatch, skipped")
+            continue
+        if last_seq is not None and seq != last_seq + 1:
+            problems.append(f"block {index}: sequence {seq} after {last_seq}")
+        last_seq = seq
+        if kind == fl.KIND_DATA:
+            if nrec > fl.BLOCK_RECORDS:
+                problems.append(f"block {index}: {nrec} records")
+                continue
+            r = np.frombuffer(block, dtype=_REC_DTYPE, count=nrec, offset=fl.BLK_HDR)
+            recs.append(r)
+            samples.append(np.arange(first, first + nrec, dtype=np.int64))
+            fcs.append(np.full(nrec, fc_start, dtype=np.int64))
+        else:
+            body = bytes(block[fl.BLK_HDR:fl.BLK_HDR + nrec])
+            try:
+                obj = json.loads(body.decode())
+            except ValueError:
+                what = "summary" if kind == fl.KIND_SUMMARY else "note"
+                problems.append(f"block {index}: unreadable {what}")
+                continue
+            if kind == fl.KIND_SUMMARY:
+                summary = obj
+            else:
+                obj["_at_record"] = sum(len(r) for r in recs)
+                notes.append(obj)
+                if obj.get("resumed") and resumed_at is None:
+                    resumed_at = obj["_at_record"]
+                    resumed_sample = obj.get("sample")
+    if not recs:
+        raise LogDecodeError(f"{path}: no data blocks" + (f" ({problems[0]})" if problems else ""))
+    records = np.concatenate(recs)
+    sample = np.concatenate(samples)
+    fcb = np.concatenate(fcs)
+    after_resume = 0
+    if resumed_at:  # the rows of the first session only
+        problems.append("the board was reset in flight and resumed at sample %s: rows stop there (a "
+                        "replay cannot reproduce a restored state)" % resumed_sample)
+        after_resume = len(records) - resumed_at
+        records, sample, fcb = records[:resumed_at], sample[:resumed_at], fcb[:resumed_at]
+    elif resumed_at == 0:  # nothing of the first session reached flash (it was still in RAM)
+        problems.append("no records before the reset reached flash: the rows are the resumed session's, "
+                        "which a replay from the start cannot reproduce")
+    order = np.argsort(sample, kind="stable")
+    records, sample, fcb = records[order], sample[order], fcb[order]
+    gaps = np.flatnonzero(np.diff(sample) != 1)
+    for g in gaps[:5]:
+        problems.append(f"samples {sample[g] + 1}..{sample[g + 1] - 1} missing")
+    log = DecodedLog(str(path), header, records, sample, fcb, int(fcb[-1]), summary, notes, problems, nblocks)
+    log.after_resume = after_resume
+    return log
+
+
+def to_columns(log):
+    """The flight-CSV columns (dict) and metadata for the rows of the final flight computer."""
+    keep = log.sample >= log.fc_start
+    r = log.records[keep]
+    if not len(r):
+        raise LogDecodeError(f"{log.path}: no records from sample {log.fc_start} on")
+    own = log.fc_start_of_block[keep] == log.fc_start
+    dt = r["dt_us"].astype(np.int64)
+    t_us = np.concatenate([[0], np.cumsum(dt[1:])])
+    launch = np.flatnonzero(r["events"] & EV_LAUNCH)
+    if len(launch):
+        t_us = t_us - t_us[launch[0]]
+    have = r["have"]
+    q4 = r["pressure_q4_pa"].astype(np.int64)
+    pressure = np.empty(len(r), dtype=object)
+    for i in range(len(r)):
+        if have[i] & HAVE_BARO:
+            whole, frac = divmod(int(q4[i]), 16)
+            pressure[i] = f"{whole}.{frac * 625:04d}"  # q4 / 16 exactly (1/16 = 0.0625)
+        else:
+            pressure[i] = None
+    accel = np.where(have & HAVE_ACCEL, r["accel_mmps2"] / 1000.0, np.nan)
+
+    def owned(name):
+        out = np.empty(len(r), dtype=object)
+        out[:] = [int(v) if o else None for v, o in zip(r[name], own, strict=True)]
+        return out
+
+    cols = {
+        "time_s": t_us / 1e6,
+        "pressure_pa": pressure,
+        "accel_mps2": accel,
+        "board_state": r["state"].astype(np.int64),
+        "board_events": r["events"].astype(np.int64),
+        "board_flags": r["flags"].astype(np.int64),
+        "board_alt_q4": owned("alt_q4"),
+        "board_vel_q4": owned("vel_q4"),
+        "board_acc_q4": owned("acc_q4"),
+        "temp_c": r["temp_cdeg"] / 100.0,
+        "board_work_us": r["work_us"].astype(np.int64),
+    }
+    h = log.header
+    meta = {
+        "source": "apogee-fc board log %s" % Path(log.path).name,
+        "firmware": h.get("firmware", "?"),
+        "board": (h.get("board") or {}).get("board", "?"),
+        "sample_hz": h.get("sample_hz", "?"),
+        "board_sample_first": int(log.sample[keep][0]),
+        "board_fc_start": log.fc_start,
+        "board_config": json.dumps(h.get("config", {}), sort_keys=True, separators=(",", ":")),
+    }
+    if log.config.get("main_deploy_m") is not None:
+        meta["main_deploy_m"] = log.config["main_deploy_m"]
+    if log.summary:
+        for key in ("missed_deadlines", "worst_dt_us", "worst_work_us", "baro_errors", "accel_errors",
+                    "log_dropped"):
+            if key in log.summary:
+                meta["board_" + key] = log.summary[key]
+    return cols, meta
+
+
+def write_csv(log, out_csv, config_out=None):
+    from desktop.io.flightcsv import write_flight_csv
+
+    cols, meta = to_columns(log)
+    comments = ["decoded from a board flight log; replay with the config file written next to it"]
+    if log.problems:
+        comments.append("log problems: " + "; ".join(log.problems)[:500])
+    write_flight_csv(out_csv, cols, metadata=meta, comments=comments)
+    if config_out is None:
+        config_out = Path(out_csv).with_suffix(".config.json")
+    Path(config_out).write_text(json.dumps(log.config, indent=2, sort_keys=True) + "\n")
+    return Path(out_csv), Path(config_out)
+
+
+def check_replay(csv_path, config_path):
+    """Replay the decoded CSV through shared/ and compare with the board's columns.
+
+    Returns (samples compared, list of mismatch descriptions)."""
+    from desktop.io.flightcsv import read_flight_csv
+    from desktop.review.replay import config_for, replay
+    from desktop.review.replay import readings as replay_readings
+    from shared.flight import FlightComputer
+
+    log = read_flight_csv(csv_path)
+    config = config_for(log, config_path)
+    result = replay(log, config)
+    board_state = log.extra["board_state"].astype(np.int64)
+    board_events = log.extra["board_events"].astype(np.int64)
+    problems = []
+    bad = np.flatnonzero(result.state.astype(np.int64) != board_state)
+    if len(bad):
+        i = int(bad[0])
+        problems.append(f"state differs at row {i}: replay {int(result.state[i])}, "
+                        f"board {int(board_state[i])}")
+    # events and filter state: step again, sample by sample
+    dt_us, alt_mm, accel, have = replay_readings(log)
+    from desktop.review.replay import ground_alt_mm
+
+    fc = FlightComputer(config, ground_alt_mm=ground_alt_mm(log))
+    alt_b = log.extra["board_alt_q4"]
+    vel_b = log.extra["board_vel_q4"]
+    acc_b = log.extra["board_acc_q4"]
+    for i in range(len(log)):
+        fc.step(int(dt_us[i]), int(alt_mm[i]), int(accel[i]), int(have[i]))
+        if fc.events != board_events[i] and len(problems) < 10:
+            problems.append(f"events differ at row {i}: replay {fc.events}, board {int(board_events[i])}")
+        if not np.isnan(alt_b[i]):
+            kf = fc.kf
+            board = (int(alt_b[i]), int(vel_b[i]), int(acc_b[i]))
+            if (kf.alt_q4, kf.vel_q4, kf.acc_q4) != board and len(problems) < 10:
+                problems.append(f"filter state differs at row {i}")
+    return len(log), problems
+
+
+def register(subparsers):
+    p = subparsers.add_parser(
+        "logdecode", help="decode a board flight log (flight.log) into a flight CSV",
+        description="Check and decode the binary flight log the board writes (device/flightlog.py) into "
+                    "a flight CSV (docs/FLIGHT_CSV.md) and the board's configuration (JSON), so that "
+                    "'python -m desktop replay FLIGHT.csv --config FLIGHT.config.json' reproduces the "
+                    "board's decisions sample for sample.")
+    p.add_argument("file", help="the board's log (flight.log, pulled with tools/deploy.py pull)")
+    p.add_argument("--out", required=True, metavar="FLIGHT.csv", help="flight CSV to write")
+    p.add_argument("--config-out", metavar="CONFIG.json", help="where to write the board's configuration "
+                   "(default: next to the CSV, FLIGHT.config.json)")
+    p.add_argument("--check", action="store_true",
+                   help="replay the CSV and compare with the board's decisions")
+    p.add_argument("--json", action="store_true", help="print the decode report as JSON")
+    p.set_defaults(func=run)
+
+
+def run(args):
+    try:
+        log = read_log(args.file)
+        csv_path, cfg_path = write_csv(log, args.out, args.config_out)
+    except (LogDecodeError, ValueError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    report = {
+        "file": args.file,
+        "blocks": log.blocks,
+        "records": int(len(log.records)),
+        "rows_written": int(np.count_nonzero(log.sample >= log.fc_start)),
+        "fc_start": log.fc_start,
+        "problems": log.problems,
+        "summary": log.summary,
+        "csv": str(csv_path),
+        "config": str(cfg_path),
+        "replay": f"python -m desktop replay {csv_path} --config {cfg_path}",
+    }
+    if args.check:
+        n, problems = check_replay(csv_path, cfg_path)
+        report["check"] = {"samples": n, "identical": not problems, "differences": problems}
+    if args.json:
+        print(json.dumps(report, indent=2))
+    else:
+        print(f"{args.file}: {log.blocks} blocks, {len(log.records)} records; "
+              f"{report['rows_written']} rows written to {csv_path} "
+              f"(flight computer from sample {log.fc_start})")
+        for prob in log.problems:
+            print(f"  problem: {prob}")
+        if log.summary:
+            s = log.summary
+            print(f"  board: {s.get('reason')}, max altitude {s.get('max_agl_mm', 0) / 1000:.1f} m, "
+                  f"{s.get('missed_deadlines')} missed deadlines, worst work {s.get('worst_work_us')} us")
+        print(f"  config: {cfg_path}")
+        print(f"  replay: {report['replay']}")
+        if args.check:
+            c = report["check"]
+            if c["identical"]:
+                print(f"  check: replay reproduces the board's decisions on all {c['samples']} samples")
+            else:
+                print("  check: DIFFERENT: " + "; ".join(c["differences"]))
+    if args.check and not report["check"]["identical"]:
+        return 1
+    return 0

@@ -1,0 +1,1 @@
+"""Flight review: replay a flight log through the board's code, and plot it."""

@@ -1,0 +1,1 @@
+"""Tests, by part: shared/ (portable core), device/ (firmware), desktop/, tools/; support/ holds helpers."""

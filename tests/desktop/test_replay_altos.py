@@ -1,0 +1,78 @@
+"""Replays of the 16 real AltOS flights through the exact board code (tests/data/flights/altos/,
+GPL-2.0-or-later data; reference apogees in its README, a non-causal fit of the whole record)."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from desktop.io.flightcsv import read_flight_csv
+from desktop.review.replay import config_for, replay
+
+DATA = Path(__file__).parents[1] / "data" / "flights" / "altos"
+REFERENCE = json.loads((DATA / "reference.json").read_text())["flights"]
+
+
+@pytest.fixture(scope="module")
+def results():
+    out = {}
+    for name in sorted(REFERENCE):
+        log = read_flight_csv(DATA / name)
+        out[name] = (log, replay(log, config_for(log)))
+    return out
+
+
+def test_non_flight_never_fires(results):
+    name = next(n for n, r in REFERENCE.items() if r["non_flight"])
+    _, res = results[name]
+    assert not res.pyro_drogue.any() and not res.pyro_main.any()
+    assert not [e for e in res.events if e.event in ("apogee", "drogue", "main")]
+
+
+def test_clean_flights_drogue_near_reference_apogee(results):
+    errors = []
+    for name, ref in REFERENCE.items():
+        if not ref["clean"]:
+            continue
+        _, res = results[name]
+        drogue = res.first("drogue")
+        assert drogue is not None, name
+        errors.append(drogue.time_s - ref["apogee_time_s"])
+    errors = np.abs(errors)
+    assert len(errors) == 14
+    # Measured: mean 0.116 s, max 0.20 s (issue goal: mean <= 0.12 s, max <= 0.30 s; the boards'
+    # own decisions: mean 0.18 s, max 0.54 s). docs/BENCHMARKS.md has the per-flight table.
+    assert errors.max() <= 0.30
+    assert errors.mean() <= 0.12
+
+
+def test_anomalous_flight_within_its_window(results):
+    name = "2012-05-28-serial-319-flight-005.csv"
+    _, res = results[name]
+    err = res.first("drogue").time_s - REFERENCE[name]["apogee_time_s"]
+    assert -0.2 <= err <= 1.0
+
+
+def test_no_firing_before_burnout_and_main_at_configured_altitude(results):
+    for name, (_log, res) in results.items():
+        burnout = res.first("burnout")
+        for ev in ("apogee", "drogue", "main"):
+            e = res.first(ev)
+            if e is not None:
+                assert burnout is not None and e.index > burnout.index, (name, ev)
+        main = res.first("main")
+        if main is not None and REFERENCE[name]["apogee_altitude_m_agl"] and \
+                REFERENCE[name]["apogee_altitude_m_agl"] > 260:
+            # the barometric record at the main instant (median of the last three readings: the
+            # board's own main charge, fired at the same 250 m, spikes the reading at that sample)
+            baro_m = float(np.median(res.raw_agl_m[main.index - 2:main.index + 1]))
+            assert abs(baro_m - 250) <= 10, (name, baro_m)
+
+
+def test_replay_is_deterministic(results):
+    name = "2012-09-29-serial-341-flight-005.csv"
+    log, res = results[name]
+    again = replay(log, config_for(log))
+    assert [(e.event, e.index) for e in again.events] == [(e.event, e.index) for e in res.events]
+    assert np.array_equal(again.agl_m, res.agl_m)

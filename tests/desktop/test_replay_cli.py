@@ -1,0 +1,75 @@
+"""``python -m desktop replay``: output, JSON, plot, and one clear error line for bad input."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from desktop.cli import main
+
+FLIGHT = Path(__file__).parents[1] / "data" / "flights" / "altos" / "2012-09-29-serial-341-flight-005.csv"
+
+
+def test_text_output_lists_events(capsys):
+    assert main(["replay", str(FLIGHT)]) == 0
+    out = capsys.readouterr().out
+    for name in ("launch", "burnout", "apogee", "drogue", "main"):
+        assert name in out
+
+
+def test_json_output_and_main_altitude_override(capsys):
+    assert main(["replay", str(FLIGHT), "--json", "--main-altitude", "300"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    names = [e["event"] for e in data["events"]]
+    assert names == ["launch", "burnout", "apogee", "drogue", "main"]
+    assert set(data["events"][0]) == {"event", "time_s", "altitude_m"}
+    main_ev = data["events"][-1]
+    assert 290 <= main_ev["altitude_m"] <= 300 and data["config"]["main_deploy_m"] == 300
+
+
+def test_plot_is_written(tmp_path):
+    out = tmp_path / "replay.png"
+    assert main(["replay", str(FLIGHT), "--plot", str(out)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("content,expected", [
+    ("", "empty"),
+    ("time_s,pressure_pa\n0.0,abc\n", ":2:"),
+    ("time_s,pressure_pa\n0.0,100000\n0.0,100000\n", "increasing"),
+    ("time_s,accel_mps2\n0.0,9.8\n", "pressure_pa"),
+    ("\x00\x01\x02binary", "binary"),
+])
+def test_malformed_input_is_one_line_and_status_2(tmp_path, content, expected):
+    bad = tmp_path / "bad.csv"
+    bad.write_bytes(content.encode("latin-1"))
+    proc = subprocess.run([sys.executable, "-m", "desktop", "replay", str(bad)], capture_output=True,
+                          text=True, cwd=Path(__file__).parents[2])
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr
+    assert expected in lines[0].lower() or expected in lines[0]
+
+
+def test_bad_config_is_one_line(tmp_path):
+    cfg = tmp_path / "c.json"
+    cfg.write_text('{"main_deploy_m": -1}')
+    proc = subprocess.run([sys.executable, "-m", "desktop", "replay", str(FLIGHT), "--config", str(cfg)],
+                          capture_output=True, text=True, cwd=Path(__file__).parents[2])
+    assert proc.returncode == 2 and "main_deploy_m" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_decoded_board_log_replays_with_the_board_configuration(tmp_path, capsys):
+    # a decoded board log carries its configuration as metadata: replay uses it without --config
+    text = FLIGHT.read_text()
+    with_config = tmp_path / "decoded.csv"
+    with_config.write_text('# board_config: {"main_deploy_m":400}\n' + text)
+    assert main(["replay", str(with_config), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["config"]["main_deploy_m"] == 400
+    bad = tmp_path / "bad.csv"
+    bad.write_text("# board_config: {main_deploy_m: 400\n" + text)
+    assert main(["replay", str(bad)]) == 2
+    assert "board_config is not valid JSON" in capsys.readouterr().err
