@@ -27,7 +27,7 @@ work time of the sample (read + step + outputs, us, saturated at 65535).
 Power loss: a block is written whole and the file flushed after each block, so a power loss loses
 at most the block being written (the decoder checks every block's CRC and sequence number) and
 the blocks still in RAM. Records are buffered in RAM from the pad through apogee: nothing is
-written to flash in boost or coast (design note 5: flash programming stalls the CPU).
+written to flash in boost or coast (DESIGN.md D5: flash programming stalls the CPU).
 """
 
 import struct

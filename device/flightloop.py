@@ -22,7 +22,7 @@ So on the pad a second ("shadow") flight computer starts at a log block boundary
 with the same readings; after ``PAD_EPOCH_S`` it replaces the first one (at a block boundary,
 only while both are on the pad and quiet), and the RAM log keeps only the records from the start
 of the one in use. The one in use at launch has between one and two epochs of pad behind it: a
-full calibration (design note 8), and a log that starts where it started.
+full calibration (DESIGN.md D8), and a log that starts where it started.
 """
 
 import gc
@@ -43,7 +43,7 @@ GUARD_MARGIN_MS = 100  # pulse guard: the hardware timer cuts the output this lo
 DISARM_DEBOUNCE_MS = 500
 # Disarming with the arming input works on the pad, and after a launch detection that has not
 # been proven (a hard knock, the rocket carried to the pad) while the filtered altitude stays
-# below this: no firing path is open then (design note 1). A real boost passes it in well under
+# below this: no firing path is open then (DESIGN.md D1). A real boost passes it in well under
 # DISARM_DEBOUNCE_MS, so a switch bouncing open at ignition cannot disarm a flight.
 NOT_FLOWN_MM = 10000
 LOCK_HEAP = False  # run sample() under micropython.heap_lock() (tests; any allocation raises)

@@ -8,7 +8,7 @@ Over mpremote (the board is idle: mpremote interrupts main.py and soft-resets fi
     mpremote exec "from device.groundtest import fire; fire('drogue', 50, confirm='drogue',
                    igniter='live igniter')"          # (one line)
 
-Safety (design note 2): refused unless the board is disarmed (arming input off) and idle (no
+Safety (DESIGN.md D2): refused unless the board is disarmed (arming input off) and idle (no
 ``armed.flag`` from an interrupted flight); the channel name must be typed again; a connected
 igniter needs ``igniter='live igniter'``; the pulse is bounded by a hardware timer that drives the
 output low (``Pyro.guard``; where the port has none, by the watchdog, and the board resets after

@@ -14,7 +14,7 @@ Two things are stored:
   RTC memory (``machine.RTC().memory()``, ESP32: kept across watchdog, brown-out and soft resets)
   it is rewritten every 0.1 s in flight and at every event. Elsewhere (the RP2040 port has no
   RTC memory) it goes to the small file ``resume.bin`` at launch and at every event only, at the
-  safe point right after the sample (a flash write stalls the CPU: design note 5; the stall is
+  safe point right after the sample (a flash write stalls the CPU: DESIGN.md D5; the stall is
   counted as missed deadlines and the filter predicts across it).
 
 On boot with ``armed.flag`` present, the app restores the record if it is a flight record the

@@ -13,7 +13,7 @@ flight; call ``step()`` once per sample with integer readings:
 After ``step()``: ``state``, ``events`` (bit mask of what happened at this sample),
 ``pyro_drogue`` / ``pyro_main`` (output levels to drive now), ``agl_mm``, ``vel_mmps``.
 
-Safety (../shared/design-notes.md item 1): every firing path (apogee, apogee delay, backup timer,
+Safety (docs/DESIGN.md D1): every firing path (apogee, apogee delay, backup timer,
 main) requires ``flight_proven``: a boost sustained for ``launch_accel_time_s`` *and* a climb of
 ``proof_climb_m`` that the barometer holds for a second (barometer-only boards: that climb and
 ``proof_speed_mps``; accelerometer-only boards: the boost, and that speed and climb integrated
@@ -61,7 +61,7 @@ _CAL_BLOCK_MS = const(1000)
 _PAD_OFFSET_LIMIT_MM = const(0xFFFFF)  # 2**20 - 1: 1 km
 _G_MMPS2 = const(9807)
 # The pad reading of the axis must be within 50% of 1 g (see _check_orientation): a wrong part or range,
-# an inverted mount, or a board lying down (../shared/design-notes.md item 4).
+# an inverted mount, or a board lying down (docs/DESIGN.md D4).
 _ONE_G_MIN = const(4903)
 _ONE_G_MAX = const(14710)
 # On the pad a barometric jump larger than this (mm) is a pressure step (av-bay sealed, a gust,
@@ -536,7 +536,7 @@ class FlightComputer:
         if self.pyro_main and self.now_ms >= self._main_off_ms:
             self.pyro_main = False
 
-    # Resume after a reset in flight (design-notes item 3). The device writes this record to
+    # Resume after a reset in flight (docs/DESIGN.md D3). The device writes this record to
     # memory that survives a reset (RTC memory, or a small flash record) at launch and at every
     # event; on boot it restores it and carries on instead of calibrating "ground" at altitude.
     # Fields: version, state, flags (launched, proven, fired drogue, fired main), now_ms,

@@ -15,13 +15,13 @@ Two families of gains:
     Converged (steady-state) gains from scipy's discrete algebraic Riccati solver (the
     accelerometer-only filter, which has no finite Riccati solution, from the limit of the
     recursion), for every sample rate the board supports. Noise parameters (SI units), chosen
-    as AltOS chose them after years of flights (../shared/reference/altos.md section 1.3):
+    as AltOS chose them after years of flights (docs/DESIGN.md D12):
 
     - process noise: continuous white jerk, spectral density SIGMA_JERK^2 (m^2/s^5), discretised
       exactly: Q = q [[T^5/20, T^4/8, T^3/6], [T^4/8, T^3/3, T^2/2], [T^3/6, T^2/2, T]].
       It lets the acceleration state follow motor burn-out and drag changes within ~0.2 s.
-    - barometer: SIGMA_ALT_M = 6 m. Real parts are quieter (0.1-1 m RMS, ../shared/reference
-      section 5.3), but their errors are dominated by transients (ejection, av-bay venting,
+    - barometer: SIGMA_ALT_M = 6 m. Real parts are quieter (0.1-1 m RMS, docs/SENSORS.md
+      and DESIGN.md D12), but their errors are dominated by transients (ejection, av-bay venting,
       transonic static-pressure error) that 6 m covers; the seed's simulated barometer has 5.985 m.
     - accelerometer: SIGMA_ACCEL_MPS2 = 2 m/s^2: noise, vibration and the unknown tilt between the
       rocket's axis and the vertical.

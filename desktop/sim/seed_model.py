@@ -3,7 +3,7 @@
 The seed (``rocket_sim`` in its chapter 4) builds a 1 ms kinematic acceleration profile, integrates
 it with a constant-acceleration state-transition matrix, adds Gaussian noise to position, velocity
 and acceleration, keeps every 50th 1 ms sample and floor-quantises the amplitudes in steps of 3.
-This module follows the seed's *code* (design note 7), including its quirks:
+This module follows the seed's *code* (DESIGN.md D7), including its quirks:
 
 - ``t = linspace(0, t_length, t_length*1000)``: the time vector is NOT 1 ms spaced but
   ``t_length / (N - 1)`` (1.0000667 ms for 15 s); every truth sample and measurement is labelled
@@ -25,12 +25,12 @@ This module follows the seed's *code* (design note 7), including its quirks:
   -9.81 m/s^2 is always -12 (a -2.19 m/s^2 bias), and a resting accelerometer (0) reads 0 or -3
   with equal probability.
 
-Flight-CSV convention (design note 6): ``accel_mps2`` is specific force, written as the quantised
+Flight-CSV convention (DESIGN.md D6): ``accel_mps2`` is specific force, written as the quantised
 kinematic acceleration + 9.81 (the seed's g): -2.19 in coast, 9.81 or 6.81 at rest.
 
 Additions beyond the seed (each off in the seed-exact mode):
 
-- A pad period (design note 8): ``pad_s`` seconds of samples at rest before ignition (truth 0),
+- A pad period (DESIGN.md D8): ``pad_s`` seconds of samples at rest before ignition (truth 0),
   with the same noise and quantisation plus a slow linear barometric drift that ends at 0 at
   ignition, so that pad calibration is exercised. ``time_s`` then starts at the first pad sample
   and ignition is at ``ignition_time_s = n_pad * period``. ``pad_s = 0`` gives the seed's time

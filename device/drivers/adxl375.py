@@ -10,7 +10,7 @@ Usage::
 **The two parts cannot be told apart**: the ADXL375 is register-compatible with the ADXL345 down
 to the DEVID register (0xE5 on both), so ``part`` is the caller's statement of what is soldered on
 the board. A wrong ``part`` gives readings off by 12.5x (3.9 vs 49 mg/LSB). What catches it is the
-pad check before arming (design note 4): at rest |a| must be close to 1 g (9807 mm/s^2); an
+pad check before arming (DESIGN.md D4): at rest |a| must be close to 1 g (9807 mm/s^2); an
 ADXL345 read as an ADXL375 shows ~12.3 g, an ADXL375 read as an ADXL345 shows ~0.08 g.
 
 Settings (register values written by ``__init__``):

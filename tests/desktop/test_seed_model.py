@@ -34,7 +34,7 @@ def test_default_flight_burnout_and_apogee():
     fl = sm.simulate_seed_flight(seed=0)
     v_bo, t_apo, h_apo = analytic_apogee(160.0, 0.05, 0.35, 0.5)
     assert v_bo == pytest.approx(63.019, abs=1e-9)
-    # design note 7: burns out at 63.0 m/s at 0.5 s, reaches 219.7 m at 6.92 s
+    # DESIGN.md D7: burns out at 63.0 m/s at 0.5 s, reaches 219.7 m at 6.92 s
     t = sm.seed_time_vector(15.0)
     _, v_ms, _ = sm.integrate_truth(sm.acceleration_profile(fl.params, len(t)))
     assert v_ms[0, 499] == pytest.approx(63.019, abs=1e-9)       # after the 500th step (t_g = 0.5 s)
@@ -114,7 +114,7 @@ def test_floor_quantisation_in_steps_of_three():
         np.testing.assert_array_equal(np.mod(q, 3.0), 0.0)
         assert (q <= raw).all() and (raw < q + 3.0).all(), key      # floor, not round
         np.testing.assert_array_equal(q, np.floor(raw / 3) * 3)
-    # accel_mps2 is specific force: quantised kinematic + 9.81 (design note 6)
+    # accel_mps2 is specific force: quantised kinematic + 9.81 (DESIGN.md D6)
     np.testing.assert_allclose(fl.accel_mps2, fl.accel_kinematic_mps2 + 9.81, atol=1e-12)
     # coast: true -9.81 always reads -12 kinematic (noise 0.0346 never crosses a step), -2.19 specific
     coast = fl.time_s[None, :] > fl.ignition_time_s + 1.0

@@ -490,7 +490,7 @@ def test_adxl345_scale_sign_and_clipping():
 
 
 def test_adxl_wrong_part_is_caught_by_the_1g_rest_check():
-    """DEVID is 0xE5 on both: only |a| at rest tells an ADXL345 from an ADXL375 (design note 4)."""
+    """DEVID is 0xE5 on both: only |a| at rest tells an ADXL345 from an ADXL375 (DESIGN.md D4)."""
     def rest_g(fake, part):
         drv = ADXL375(on_bus(0x53, fake), part=part)
         fake.set_truth((0.0, 0.0, 9.80665))

@@ -1,6 +1,6 @@
 """The deploy state machine on synthetic flights and on the pad scenarios that must never fire.
 
-Every pad scenario runs with every rule and timer enabled (design-notes item 1), in each sensor
+Every pad scenario runs with every rule and timer enabled (docs/DESIGN.md D1), in each sensor
 mode: barometer + accelerometer, barometer only, accelerometer only.
 """
 

@@ -6,7 +6,7 @@ import pytest
 from shared import gains_table
 from tools import gen_gains
 
-# design-notes item 7: the seed's recursion computed with numpy from the seed's listing.
+# docs/DESIGN.md D7: the seed's recursion computed with numpy from the seed's listing.
 SEED_K_FIXTURE = np.array([
     [0.0329735204, 1.4504801e-06],
     [0.0193120142, 5.98274301e-05],
@@ -41,7 +41,7 @@ def test_riccati_solution_is_the_limit_of_the_recursion(rate_hz):
 
 
 def test_altos_gains_reproduced_at_100hz():
-    # ../shared/reference/altos.md 1.3: AltOS's BOTH gains at 0.01 s in SI units. AltOS scales Q
+    # docs/DESIGN.md D12: AltOS's BOTH gains at 0.01 s in SI units. AltOS scales Q
     # by 16^2 in its internal units, which moves K01 by ~2.5%; the rest agree to 0.1%.
     both = gen_gains.project_gains(100)[0]
     altos = np.array([[0.0081273, 8.964e-4], [0.0033206, 0.0094928], [9.96e-5, 0.0951244]])
