@@ -33,6 +33,7 @@ from device.flightloop import FlightLoop, collect
 from device.resume import PHASE_FLIGHT, PHASE_LANDED, ResumeStore
 from shared.config import ConfigError, load_config, load_config_file
 from shared.flight import STATE_NAMES, FlightComputer
+from shared.physics import G_MMPS2
 
 FIRMWARE_VERSION = "0.1.0"
 LOG_PATH = "flight.log"
@@ -40,7 +41,6 @@ ARM_DEBOUNCE_MS = 1000
 PAD_CHECK_S = 1
 PRESSURE_MIN_Q4 = 30000 * 16  # 30 kPa: about 9 km
 PRESSURE_MAX_Q4 = 110000 * 16
-ONE_G = 9807
 LOG_SPACE_MARGIN = 16384
 CURRENT = None  # the running App, for inspection over mpremote (``app.CURRENT.last_summary``)
 
@@ -217,14 +217,14 @@ class App:
                 mag = mag_sum // accel_ok
                 self.pad_figures["axis_mmps2"] = axis
                 self.pad_figures["magnitude_mmps2"] = mag
-                lo = ONE_G * 3 // 4
-                hi = ONE_G * 5 // 4
+                lo = G_MMPS2 * 3 // 4
+                hi = G_MMPS2 * 5 // 4
                 if not lo <= mag <= hi:
                     problems.append((status.ERR_ONE_G, "accelerometer reads |a| = %.2f g at rest: wrong part "
-                                     "or range setting" % (mag / ONE_G)))
+                                     "or range setting" % (mag / G_MMPS2)))
                 elif not lo <= axis <= hi:
                     problems.append((status.ERR_ONE_G, "accelerometer axis %s reads %.2f g: board not "
-                                     "upright or mounted inverted" % (b["accel"]["axis"], axis / ONE_G)))
+                                     "upright or mounted inverted" % (b["accel"]["axis"], axis / G_MMPS2)))
         for i in range(2):
             if hw.pyro.continuity(i) == 0:
                 problems.append((status.ERR_CONTINUITY, "%s igniter: no continuity" % ("drogue", "main")[i]))

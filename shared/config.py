@@ -6,7 +6,7 @@ uses. Any problem raises ``ConfigError`` with one line naming the key, the value
 range; unknown keys are errors, never ignored.
 """
 
-G_MMPS2 = 9807  # standard gravity, mm/s^2
+from shared.physics import G_MMPS2
 
 # key: (default, minimum, maximum, unit, meaning). Numbers accept int or float; 0 disables the
 # keys documented as "0 = off". Defaults suit a typical high-power dual-deploy flight.

@@ -32,11 +32,14 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT) not in sys.path:  # run as a script: make the project's packages importable
+    sys.path.insert(0, str(ROOT))
+from shared.physics import G0_MPS2 as G0  # noqa: E402
+
 OUTPUT = ROOT / "shared" / "altitude_table.py"
 REGEN_CMD = "python tools/gen_altitude_table.py"
 
-# ISA constants (as in AltOS make-altitude-pa and the US Standard Atmosphere 1976).
-G0 = 9.80665
+# ISA constants (as in AltOS make-altitude-pa and the US Standard Atmosphere 1976); g is G0.
 R_AIR = 287.053
 T0_K = 288.15
 P0_PA = 101325.0

@@ -9,7 +9,7 @@ until the drogue descent rate, then steady descent. Readings: barometric altitud
 kinematic acceleration in mm/s^2, each with triangular pseudo-noise and optional glitches.
 """
 
-G_MMPS2 = 9807
+from shared.physics import G_MMPS2
 
 
 class Noise:

@@ -62,8 +62,7 @@ from shared.altitude import pressure_to_alt_mm
 from shared.config import Config, load_config
 from shared.detector import HAVE_ACCEL, HAVE_BARO
 from shared.flight import EVENT_NAMES, FlightComputer
-
-G0 = 9.80665
+from shared.physics import G0_MPS2 as G0
 
 __all__ = [
     "FlightComputerTrigger",

@@ -57,7 +57,7 @@ import numpy as np
 # The seed's constants.
 DT_S = 1e-3                 # truth integration step (the seed's dt)
 G_MPS2 = -9.81              # the seed's g (kinematic acceleration in coast)
-G0_MPS2 = 9.81              # specific force = kinematic - g: add this to write accel_mps2
+SEED_PAPER_G0_MPS2 = 9.81   # the paper's g; specific force = kinematic - g: add this to write accel_mps2
 DECIMATION = 50             # the seed's t(1:50:end): every 50th 1 ms sample
 QUANT_STEP = 3.0            # the seed's floor(x/3)*3, for every channel
 SIGMA_ALT_M = 5.985
@@ -380,7 +380,7 @@ class FlightBatch:
     @property
     def accel_kinematic_mps2(self) -> np.ndarray:
         """Quantised kinematic acceleration (the seed's a_n_q), recovered exactly (multiples of 3)."""
-        return np.rint((self.accel_mps2 - G0_MPS2) / QUANT_STEP) * QUANT_STEP
+        return np.rint((self.accel_mps2 - SEED_PAPER_G0_MPS2) / QUANT_STEP) * QUANT_STEP
 
     def true_velocity_at(self, times_s) -> np.ndarray:
         """|The 1 ms truth velocity| is what the study reports; this gives the signed value at
@@ -516,7 +516,8 @@ def simulate(
     cat = FlightParams(*(np.concatenate([getattr(p, f) for p in all_params])
                          for f in ("a_peak_mps2", "rise_end_ms", "hold_end_ms", "decay_end_ms")))
     return FlightBatch(
-        time_s=time_s, altitude_m=out["alt"], velocity_mps=out["vel"], accel_mps2=out["acc"] + G0_MPS2,
+        time_s=time_s, altitude_m=out["alt"], velocity_mps=out["vel"],
+        accel_mps2=out["acc"] + SEED_PAPER_G0_MPS2,
         true_altitude_m=out["talt"], true_velocity_mps=out["tvel"], true_accel_mps2=out["tacc"],
         true_apogee_time_s=apo_t, true_apogee_m=apo_m, params=cat, flight_index=flight_indices,
         seed=int(seed), t_length_s=t_length_s, pad_s=float(pad_s), n_pad=n_pad,

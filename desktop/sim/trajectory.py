@@ -32,6 +32,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from desktop.io.rocket_file import EngMotor, RocketSpec
+from shared.physics import G0_MPS2 as G0
 
 __all__ = [
     "G0",
@@ -46,7 +47,6 @@ __all__ = [
     "TrajectoryError",
 ]
 
-G0 = 9.80665  # standard gravity, m/s^2 (used for g everywhere, also in RocketPy's Environment)
 R_AIR = 287.05287  # J/(kg K), ISO 2533
 GAMMA = 1.4
 EARTH_RADIUS_M = 6356766.0  # ISO 2533 radius for geopotential height

@@ -47,7 +47,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-G0_MPS2 = 9.81                  # the seed's g: kinematic acceleration = accel_mps2 - 9.81
+from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
+
 LAUNCH_THRESHOLD_MPS2 = 30.0
 LOCKOUT_S = 1.0
 BOXCAR_WINDOW = 40
@@ -239,7 +240,7 @@ def _filtered(kind: str, time_s, altitude_m):
 def _seed_kalman_states(time_s, altitude_m, accel_mps2):
     # The seed's T = .05; a differently sampled log gets gains for its own (rounded) period.
     T = round(sample_period_s(time_s), 4)
-    return seed_kalman(altitude_m, _2d(accel_mps2) - G0_MPS2, T=T)
+    return seed_kalman(altitude_m, _2d(accel_mps2) - SEED_PAPER_G0_MPS2, T=T)
 
 
 def _make_filter_method(kind: str, rule: str):

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
 from desktop.study import baselines
 from desktop.study.seed_study import METRIC_KEYS, format_cell, metrics, table_lines
 
@@ -309,7 +310,7 @@ def comparison_methods(time_s, altitude_m, accel_mps2) -> dict:
     armed = baselines.armed_mask(t, acc)
     period = baselines.sample_period_s(t)
     T = round(period, 4)  # as baselines' seed-kalman methods: gains for the (rounded) period
-    s = seed_kalman_position(alt, acc - baselines.G0_MPS2, T)
+    s = seed_kalman_position(alt, acc - SEED_PAPER_G0_MPS2, T)
     out = {"seed-kalman/seed": float(baselines.detect_seed_rule(t, s, armed)[0])}
     box = baselines.boxcar(alt, window=boxcar_window(t))
     out["boxcar/seed"] = float(baselines.detect_seed_rule(t, box, armed)[0])
@@ -646,7 +647,7 @@ def write_plots(result: RocketStudyResult, out_dir, example_index: int = 0) -> l
     t_b, alt_b, acc_b = d["baseline_inputs"]
     apo = traj.apogee_time_s
     T = round(baselines.sample_period_s(t_b), 4)
-    sk = seed_kalman_position(alt_b, acc_b - baselines.G0_MPS2, T)
+    sk = seed_kalman_position(alt_b, acc_b - SEED_PAPER_G0_MPS2, T)
     box = baselines.boxcar(alt_b, window=boxcar_window(t_b))[0]
     but = baselines.butterworth(alt_b, 1.0 / baselines.sample_period_s(t_b))[0]
     colors = {"flight-computer": "tab:green", "seed-kalman/seed": "tab:blue", "boxcar/seed": "tab:orange",

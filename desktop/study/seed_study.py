@@ -39,8 +39,9 @@ from pathlib import Path
 
 import numpy as np
 
-from desktop.study import baselines
 from desktop.sim import seed_model as sm
+from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
+from desktop.study import baselines
 
 DEFAULT_PAD_S = {"montecarlo": 2.0, "seed": 0.0}
 CHUNK_FLIGHTS = 2000
@@ -250,7 +251,7 @@ def write_plots(result: StudyResult, out_dir, seed: int) -> list[Path]:
     apo = float(fl.true_apogee_time_s[0])
     armed = baselines.armed_mask(t, acc)
     fs = 1.0 / baselines.sample_period_s(t)
-    ks, kv, _ = baselines.seed_kalman(alt, acc - baselines.G0_MPS2)
+    ks, kv, _ = baselines.seed_kalman(alt, acc - SEED_PAPER_G0_MPS2)
     filt = {
         "boxcar": baselines.boxcar(alt),
         "butterworth": baselines.butterworth(alt, fs),
@@ -418,7 +419,8 @@ def export_csv(path, mode: str, seed: int, flight_index: int, pad_s: float) -> s
     columns, meta = sm.flight_csv_columns(batch, 0)
     meta["params"] = mode
     comments = (
-        "Simulated with the seed study's flight model (desktop/sim/seed_model.py), python -m desktop montecarlo",
+        "Simulated with the seed study's flight model (desktop/sim/seed_model.py), "
+        "python -m desktop montecarlo",
         "accel_mps2 is specific force: the floor-quantised kinematic acceleration + 9.81",
     )
     write_flight_csv(path, columns, meta, comments)

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from desktop.study import baselines as bl
 from desktop.sim import seed_model as sm
+from desktop.study import baselines as bl
 
 # Design note 7: the seed's gain recursion at T = 0.05, computed with numpy from its listing.
 K_FIXTURE = np.array([

@@ -4,9 +4,8 @@ filter and against the study's goals, on simulated seed flights."""
 import numpy as np
 import pytest
 
-from desktop.study import baselines
-from desktop.study import detect
 from desktop.sim.seed_model import simulate_monte_carlo
+from desktop.study import baselines, detect
 
 
 @pytest.fixture(scope="module")

@@ -6,6 +6,7 @@ import random
 import numpy as np
 import pytest
 
+from desktop.hosts.micropython import run_micropython
 from desktop.sim.fakes import (
     FakeADXL345,
     FakeADXL375,
@@ -18,7 +19,6 @@ from desktop.sim.fakes import (
     FakeMS5611,
 )
 from desktop.sim.fakes import baro as fb
-from desktop.hosts.micropython import run_micropython
 from device.drivers.bmp3xx import BMP3XX
 from device.drivers.bmp280 import BMP280
 from device.drivers.mpu6050 import MPU6050

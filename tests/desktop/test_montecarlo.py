@@ -7,10 +7,10 @@ import types
 import numpy as np
 import pytest
 
+from desktop.cli import main
+from desktop.sim import seed_model as sm
 from desktop.study import baselines
 from desktop.study import seed_study as mc
-from desktop.sim import seed_model as sm
-from desktop.cli import main
 
 N, SEED = 20, 5
 

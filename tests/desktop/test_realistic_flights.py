@@ -7,8 +7,8 @@ flights once made the detector fire 19 s early (a bias learnt from the lying bar
 import pytest
 
 from desktop.io.flightcsv import read_flight_csv
-from desktop.review.replay import config_for, replay
 from desktop.io.rocket_file import load_rocket
+from desktop.review.replay import config_for, replay
 from desktop.sim.sensor_models import BoardConfig, make_record, parse_profile, write_record
 from desktop.sim.trajectory import simulate_rocket
 

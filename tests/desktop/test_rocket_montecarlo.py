@@ -9,13 +9,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from desktop.study import baselines
-from desktop.study import rocket_study as rm
 from desktop.cli import main
 from desktop.io.flightcsv import read_flight_csv
-from desktop.study.seed_study import METRIC_KEYS, metrics
 from desktop.io.rocket_file import load_rocket
+from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
 from desktop.sim.sensor_models import write_record
+from desktop.study import baselines
+from desktop.study import rocket_study as rm
+from desktop.study.seed_study import METRIC_KEYS, metrics
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning", "ignore::DeprecationWarning")
 
@@ -144,8 +145,8 @@ def test_fast_seed_kalman_is_bit_identical(c6_settings):
     _draw, _traj, record = rm.simulate_flight(c6_settings, 0)
     t, alt, acc = rm.baseline_inputs(rm.record_log(record))
     T = round(baselines.sample_period_s(t), 4)
-    s_ref = baselines.seed_kalman(alt, acc - baselines.G0_MPS2, T=T)[0][0]
-    s_fast = rm.seed_kalman_position(alt, acc - baselines.G0_MPS2, T)
+    s_ref = baselines.seed_kalman(alt, acc - SEED_PAPER_G0_MPS2, T=T)[0][0]
+    s_fast = rm.seed_kalman_position(alt, acc - SEED_PAPER_G0_MPS2, T)
     np.testing.assert_array_equal(s_fast, s_ref)
 
 

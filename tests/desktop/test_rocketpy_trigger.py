@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from desktop.io.flightcsv import read_flight_csv
-from desktop.review.replay import replay
 from desktop.io.rocket_file import load_rocket
+from desktop.review.replay import replay
 from desktop.sim.rocketpy_trigger import (
     G0,
     FlightComputerTrigger,

@@ -10,8 +10,8 @@ from array import array
 import pytest
 import smbus2
 
-from desktop.sim.fakes import FakeADXL375, FakeBMP388, FakeI2CBus, FakeMS5611
 from desktop.hosts.smbus_i2c import SMBusI2C
+from desktop.sim.fakes import FakeADXL375, FakeBMP388, FakeI2CBus, FakeMS5611
 from device.drivers.adxl375 import ADXL375
 from device.drivers.bmp3xx import BMP3XX
 from device.drivers.ms5611 import MS5611

@@ -18,9 +18,9 @@ non-monotonic FS table, CTRL3_C SW_RESET (self-clearing). Not modelled: FIFO, in
 test, gyro output, offset registers.
 """
 
-from .i2c_bus import FakeI2CDevice, default_rng, gauss
+from shared.physics import G0_MPS2 as G0
 
-G0 = 9.80665
+from .i2c_bus import FakeI2CDevice, default_rng, gauss
 
 
 def _round(x):
