@@ -37,7 +37,7 @@ __all__ = [
     "AccelPart",
     "SensorProfile",
     "BoardConfig",
-    "TransonicError",
+    "TransonicModel",
     "BoardRecord",
     "BARO_PARTS",
     "ACCEL_PARTS",
@@ -235,7 +235,7 @@ def parse_profile(name: str) -> SensorProfile:
 
 
 @dataclass(frozen=True)
-class TransonicError:
+class TransonicModel:
     """Static-port error dp = c * q * w(M) (q dynamic pressure, w a smooth window in Mach).
 
     c > 0 reads a higher pressure (lower altitude: the 'Mach dip' of 341-005), c < 0 the opposite.
@@ -257,7 +257,7 @@ def _smoothstep(x):
     return x * x * (3.0 - 2.0 * x)
 
 
-def transonic_window(mach, te: TransonicError = TransonicError()):
+def transonic_window(mach, te: TransonicModel = TransonicModel()):
     m = np.asarray(mach, dtype=float)
     rise = _smoothstep((m - te.mach_on) / (te.mach_full - te.mach_on))
     fall = 1.0 - _smoothstep((m - te.mach_fade) / (te.mach_off - te.mach_fade))
@@ -283,7 +283,7 @@ class BoardConfig:
     drift_pa_per_s: tuple[float, float] = (-0.03, 0.03)  # weather trend (+-1.1 hPa/h), uniform
     wander_pa: float = 1.5  # OU wander RMS (gusts, ambient fluctuation)
     wander_tau_s: float = 20.0
-    transonic: TransonicError = field(default_factory=TransonicError)
+    transonic: TransonicModel = field(default_factory=TransonicModel)
 
     def validate(self) -> None:
         if not 20.0 <= self.rate_hz <= 100.0:
@@ -294,7 +294,7 @@ class BoardConfig:
 
 IDEAL_BOARD = BoardConfig(jitter_s=0.0, drop_probability=0.0, stall_rate_hz=0.0, read_error_probability=0.0,
                           port_lag_s=0.0, drift_pa_per_s=(0.0, 0.0), wander_pa=0.0,
-                          transonic=TransonicError(c=0.0))
+                          transonic=TransonicModel(c=0.0))
 
 
 @dataclass

@@ -65,7 +65,7 @@ __all__ = [
     "SensorError",
     "ChipIdError",
     "CalibrationError",
-    "ConfigError",
+    "SensorConfigError",
     "chip_id_error",
     "mul_shr",
     "accel_scale_q",
@@ -97,7 +97,7 @@ class CalibrationError(SensorError):
     """The factory calibration failed its check (CRC, all-zero or all-ones words)."""
 
 
-class ConfigError(SensorError):
+class SensorConfigError(SensorError):
     """The part rejected the requested configuration (e.g. BMP3 ERR.conf_err)."""
 
 

@@ -48,7 +48,7 @@ is 0.016 Pa, its RMS noise at x8 about 0.2 Pa). The temperature is rounded to th
 promotes to long ints, i.e. ``read()`` allocates.
 """
 
-from . import CalibrationError, ConfigError, I2CDevice, const, mul_shr, sleep_ms
+from . import CalibrationError, SensorConfigError, I2CDevice, const, mul_shr, sleep_ms
 
 _REG_CHIP_ID = const(0x00)
 _REG_ERR = const(0x02)
@@ -115,7 +115,7 @@ class BMP3XX(I2CDevice):
         self.measurement_us = measurement_time_us(osr_p, osr_t)
         self.period_us = 5000 << odr_sel
         if self.measurement_us >= self.period_us:
-            raise ConfigError(
+            raise SensorConfigError(
                 "BMP3xx: x%d/x%d takes %d us, longer than the %d us ODR period"
                 % (osr_p, osr_t, self.measurement_us, self.period_us)
             )
@@ -137,7 +137,7 @@ class BMP3XX(I2CDevice):
         self._write8(_REG_PWR_CTRL, _PWR_NORMAL_PT)
         err = self._read8(_REG_ERR)
         if err & _ERR_CONF:
-            raise ConfigError("%s at 0x%02x: ERR=0x%02x, configuration rejected" % (self.part, addr, err))
+            raise SensorConfigError("%s at 0x%02x: ERR=0x%02x, configuration rejected" % (self.part, addr, err))
 
     def _load_calibration(self):
         b = bytearray(21)

@@ -229,7 +229,7 @@ def test_time_base_kept(tmp_path):
     ("# Time (s),Altitude (m),Thrust (N),Drag force (N),Mass (g)\n0,0,1,0,0\n1,1,1,0,0\n",
      "zero or negative"),
 ])
-def test_errors(tmp_path, content, fragment):
+def test_malformed_export_gives_one_line_error_naming_file(tmp_path, content, fragment):
     p = tmp_path / "bad.csv"
     p.write_text(content, encoding="utf-8")
     with pytest.raises(OpenRocketError) as err:

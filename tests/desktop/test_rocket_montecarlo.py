@@ -209,7 +209,7 @@ def test_cli_table_json_and_errors(capsys, tmp_path):
         assert fragment in err and "\n" not in err, err
 
 
-def test_plots(c6_serial, tmp_path):
+def test_plots_are_written_and_markdown_table_has_every_method(c6_serial, tmp_path):
     paths = rm.write_plots(c6_serial, tmp_path)
     assert [p.name for p in paths] == ["c6_model_error_histograms.png", "c6_model_example_flight.png",
                                        "c6_model_fc_error_vs_draws.png"]

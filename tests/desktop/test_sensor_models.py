@@ -18,7 +18,7 @@ from desktop.sim.sensor_models import (
     IDEAL_BOARD,
     BoardConfig,
     SensorProfileError,
-    TransonicError,
+    TransonicModel,
     make_record,
     parse_profile,
     profile_names,
@@ -123,7 +123,7 @@ def test_accel_clipping(flight, name, clips):
         assert np.max(a) == pytest.approx(peak, abs=5 * part.noise_rms_mps2 + part.resolution_mps2)
 
 
-def test_lags(flight):
+def test_lagging_barometer_reads_low_by_speed_times_lag_while_climbing(flight):
     """A lagging barometer reads a higher pressure (lower altitude) while climbing: about v * tau."""
     coast = (flight.time_s > 2.0) & (flight.time_s < 6.0)
     v = float(np.mean(flight.velocity_mps[coast]))
@@ -160,7 +160,7 @@ def test_transonic_window():
 
 @pytest.mark.parametrize("c", [0.03, -0.02])
 def test_transonic_error_fixed_c(supersonic, c):
-    board = dataclasses.replace(QUIET, transonic=TransonicError(c=c))
+    board = dataclasses.replace(QUIET, transonic=TransonicModel(c=c))
     rec = make_record(supersonic, "ideal", seed=7, board=board)
     t = rec.time_s
     truth_p = np.interp(t, supersonic.time_s, supersonic.pressure_pa)
@@ -177,7 +177,7 @@ def test_transonic_error_fixed_c(supersonic, c):
 
 
 def test_transonic_c_drawn_from_range(supersonic):
-    te = TransonicError()
+    te = TransonicModel()
     cs = [make_record(supersonic, "ideal", seed=s, board=dataclasses.replace(QUIET, transonic=te)).parameters[
         "transonic_c"] for s in range(40)]
     assert all(te.c_range[0] <= abs(c) <= te.c_range[1] for c in cs)
@@ -202,7 +202,7 @@ def test_board_timing_drops_and_read_errors(flight):
 
 
 @pytest.mark.parametrize("rate", [20.0, 100.0])
-def test_rates(flight, rate):
+def test_record_sample_rate_follows_board_rate_and_out_of_range_refused(flight, rate):
     rec = make_record(flight, "ms5611+adxl375", seed=9, board=BoardConfig(rate_hz=rate, pad_s=5.0))
     assert np.median(np.diff(rec.time_s)) == pytest.approx(1.0 / rate, rel=0.02)
     with pytest.raises(ValueError, match="allowed 20 to 100 Hz"):
@@ -246,5 +246,5 @@ def test_transonic_analysis_of_341_005():
     assert 1.3 < s["mach1_time_s"] < 1.45
     assert 0.015 < s["jump_c"] < 0.03
     assert 0.04 < s["peak_c"] < 0.055 and 3000 < s["peak_dp_pa"] < 4000
-    te = TransonicError()
+    te = TransonicModel()
     assert te.c_range[1] >= s["peak_c"]  # the default range covers the measured peak

@@ -99,7 +99,7 @@ def j360():
 # Standard atmosphere
 
 
-def test_isa():
+def test_isa_matches_standard_atmosphere_reference_values():
     assert isa_pressure(0.0) == pytest.approx(101325.0)
     assert isa_temperature(0.0) == pytest.approx(288.15)
     assert isa_pressure(11000.0 * 6356766 / (6356766 - 11000.0)) == pytest.approx(22632.04, rel=1e-6)

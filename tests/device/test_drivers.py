@@ -25,7 +25,7 @@ from desktop.sim.fakes import (
     FakeMS5611,
 )
 from desktop.sim.fakes import baro as fb
-from device.drivers import CalibrationError, ChipIdError, ConfigError, SensorError, mul_shr
+from device.drivers import CalibrationError, ChipIdError, SensorConfigError, SensorError, mul_shr
 from device.drivers import ms5611 as ms5611_mod
 from device.drivers.adxl375 import ADXL345, ADXL375
 from device.drivers.bmp3xx import BMP3XX
@@ -218,7 +218,7 @@ def test_bmp3_fresh_flag_follows_drdy():
 
 
 def test_bmp3_rejects_too_long_conversion():
-    with pytest.raises(ConfigError, match="longer than the 20000 us ODR period"):
+    with pytest.raises(SensorConfigError, match="longer than the 20000 us ODR period"):
         BMP3XX(on_bus(0x77, FakeBMP388()), osr_p=16)
     with pytest.raises(ValueError):
         BMP3XX(on_bus(0x77, FakeBMP388()), osr_p=3)
@@ -242,7 +242,7 @@ def test_bmp3_fake_sets_conf_err_and_driver_reports_it():
             if reg == 0x1B:
                 self.regs[0x02] |= 0x04
 
-    with pytest.raises(ConfigError, match=r"BMP388 at 0x77: ERR=0x04"):
+    with pytest.raises(SensorConfigError, match=r"BMP388 at 0x77: ERR=0x04"):
         BMP3XX(on_bus(0x77, AlwaysConfErr()))
 
 
