@@ -48,7 +48,7 @@ is 0.016 Pa, its RMS noise at x8 about 0.2 Pa). The temperature is rounded to th
 promotes to long ints, i.e. ``read()`` allocates.
 """
 
-from . import CalibrationError, SensorConfigError, I2CDevice, const, mul_shr, sleep_ms
+from . import CalibrationError, I2CDevice, SensorConfigError, const, mul_shr, sleep_ms
 
 _REG_CHIP_ID = const(0x00)
 _REG_ERR = const(0x02)
