@@ -137,7 +137,8 @@ class BMP3XX(I2CDevice):
         self._write8(_REG_PWR_CTRL, _PWR_NORMAL_PT)
         err = self._read8(_REG_ERR)
         if err & _ERR_CONF:
-            raise SensorConfigError("%s at 0x%02x: ERR=0x%02x, configuration rejected" % (self.part, addr, err))
+            raise SensorConfigError("%s at 0x%02x: ERR=0x%02x, configuration rejected"
+                                    % (self.part, addr, err))
 
     def _load_calibration(self):
         b = bytearray(21)
