@@ -39,7 +39,7 @@ import numpy as np
 
 from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
 from desktop.study import baselines
-from desktop.study.seed_study import METRIC_KEYS, format_cell, metrics, table_lines
+from desktop.study.metrics import METRIC_KEYS, format_cell, metrics, table_lines
 
 METHODS = ("flight-computer", "seed-kalman/seed", "boxcar/seed", "butterworth/seed")
 DEFAULT_PROFILE = "bmp390+lsm6dso"

@@ -11,6 +11,7 @@ from desktop.cli import main
 from desktop.sim import seed_model as sm
 from desktop.study import baselines
 from desktop.study import seed_study as mc
+from desktop.study.metrics import METRIC_KEYS, metrics
 
 N, SEED = 20, 5
 
@@ -55,10 +56,10 @@ def test_json_has_every_method_and_equals_direct_calls(capsys, monkeypatch):
     fl = sm.simulate_monte_carlo(N, SEED, pad_s=2.0)
     for name, fn in mc.all_methods().items():
         d = fn(fl.time_s, fl.altitude_m, fl.accel_mps2)
-        expect = mc.metrics(d, fl.true_apogee_time_s, fl.true_velocity_at(d))
+        expect = metrics(d, fl.true_apogee_time_s, fl.true_velocity_at(d))
         got = data["methods"][name]
-        assert set(got) == set(mc.METRIC_KEYS)
-        for key in mc.METRIC_KEYS:
+        assert set(got) == set(METRIC_KEYS)
+        for key in METRIC_KEYS:
             assert got[key] == pytest.approx(expect[key], rel=1e-12, abs=1e-12), (name, key)
 
 
@@ -73,14 +74,14 @@ def test_study_detections_equal_direct_calls_in_any_chunking():
 
 
 def test_metrics_by_hand():
-    m = mc.metrics(np.array([1.0, 2.5, np.nan, 4.0]), np.array([2.0, 2.0, 3.0, 3.0]),
+    m = metrics(np.array([1.0, 2.5, np.nan, 4.0]), np.array([2.0, 2.0, 3.0, 3.0]),
                    np.array([9.81, -4.905, np.nan, -9.81]))
     assert m["mean_abs_error_s"] == pytest.approx((1 + 0.5 + 1) / 3)
     assert m["mean_error_s"] == pytest.approx((-1 + 0.5 + 1) / 3)
     assert m["median_abs_error_s"] == 1.0 and m["max_abs_error_s"] == 1.0
     assert m["mean_abs_velocity_mps"] == pytest.approx((9.81 + 4.905 + 9.81) / 3)
     assert m["n_early_1s"] == 0 and m["n_no_detection"] == 1
-    m = mc.metrics(np.array([0.5]), np.array([2.0]), np.array([15.0]))
+    m = metrics(np.array([0.5]), np.array([2.0]), np.array([15.0]))
     assert m["n_early_1s"] == 1
 
 

@@ -16,7 +16,7 @@ from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
 from desktop.sim.sensor_models import write_record
 from desktop.study import baselines
 from desktop.study import rocket_study as rm
-from desktop.study.seed_study import METRIC_KEYS, metrics
+from desktop.study.metrics import METRIC_KEYS, metrics
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning", "ignore::DeprecationWarning")
 
