@@ -9,6 +9,15 @@ _micropython_passed = []
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "micropython: runs code on a real MicroPython interpreter")
+    config.addinivalue_line("markers", "slow: takes seconds (RocketPy, MicroPython, subprocesses); "
+                                       "the fast lane, pytest -m 'not slow', leaves it out")
+
+
+def pytest_collection_modifyitems(config, items):
+    # every MicroPython test starts an interpreter (seconds each): it belongs to the full run
+    for item in items:
+        if "micropython" in item.keywords:
+            item.add_marker(pytest.mark.slow)
 
 
 def pytest_runtest_logreport(report):

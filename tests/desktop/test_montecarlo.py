@@ -85,6 +85,7 @@ def test_metrics_by_hand():
     assert m["n_early_1s"] == 1
 
 
+@pytest.mark.slow  # matplotlib figures
 def test_plots_are_written(tmp_path, capsys):
     assert main(["montecarlo", "--flights", "12", "--seed", "2", "--no-detect", "--plots",
                  str(tmp_path)]) == 0

@@ -33,6 +33,7 @@ def export(tmp_path, header, rows, name="e.csv", pre=("# Simulation 1 (Up to dat
 # Round trip
 
 
+@pytest.mark.slow  # a RocketPy flight
 def test_round_trip_same_record(tmp_path, rocketpy_traj):
     tr = rocketpy_traj
     path = tmp_path / "fine.csv"
@@ -63,6 +64,7 @@ def test_round_trip_same_record(tmp_path, rocketpy_traj):
     assert r1.metadata["true_apogee_m"] == pytest.approx(r2.metadata["true_apogee_m"], abs=0.01)
 
 
+@pytest.mark.slow  # a RocketPy flight
 def test_round_trip_variable_step_and_imperial(tmp_path, rocketpy_traj):
     tr = rocketpy_traj
     metric, imperial = tmp_path / "m.csv", tmp_path / "i.csv"

@@ -12,6 +12,8 @@ from desktop.review.replay import config_for, replay
 from desktop.sim.sensor_models import BoardConfig, make_record, parse_profile, write_record
 from desktop.sim.trajectory import simulate_rocket
 
+pytestmark = pytest.mark.slow  # RocketPy flights
+
 ROCKETS = {"k1000_min_dia": 0.10, "c6_model": 0.10}  # allowed |drogue - true apogee|, s
 
 

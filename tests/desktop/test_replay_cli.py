@@ -35,6 +35,7 @@ def test_plot_is_written(tmp_path):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow  # a Python subprocess per case
 @pytest.mark.parametrize("content,expected", [
     ("", "empty"),
     ("time_s,pressure_pa\n0.0,abc\n", ":2:"),
@@ -53,6 +54,7 @@ def test_malformed_input_is_one_line_and_status_2(tmp_path, content, expected):
     assert expected in lines[0].lower() or expected in lines[0]
 
 
+@pytest.mark.slow  # a Python subprocess per case
 def test_bad_config_is_one_line(tmp_path):
     cfg = tmp_path / "c.json"
     cfg.write_text('{"main_deploy_m": -1}')

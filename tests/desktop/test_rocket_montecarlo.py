@@ -18,7 +18,8 @@ from desktop.study import baselines
 from desktop.study import rocket_study as rm
 from desktop.study.metrics import METRIC_KEYS, metrics
 
-pytestmark = pytest.mark.filterwarnings("ignore::UserWarning", "ignore::DeprecationWarning")
+pytestmark = [pytest.mark.slow,
+              pytest.mark.filterwarnings("ignore::UserWarning", "ignore::DeprecationWarning")]
 
 ROOT = Path(__file__).resolve().parents[2]
 ROCKETS = ROOT / "examples" / "rockets"

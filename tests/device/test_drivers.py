@@ -151,6 +151,7 @@ def _random_bmp3_cal(rng):
     }  # fmt: skip
 
 
+@pytest.mark.slow  # sweeps of the compensation
 def test_bmp3_compensation_within_31_bits_and_bosch():
     """Random calibrations around a real part, -45..90 C, 0.5..130 kPa: <= 0.0625 Pa from Bosch."""
     rng = random.Random(11)
@@ -287,6 +288,7 @@ def test_bmp280_datasheet_example_encodes():
     assert fake.published == (fake.raw_pressure, fake.raw_temp)
 
 
+@pytest.mark.slow  # sweeps of the compensation
 def test_bmp280_compensation_within_31_bits_and_int64():
     rng = random.Random(12)
     checked = 0

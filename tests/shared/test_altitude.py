@@ -80,6 +80,7 @@ def test_reference_isa_matches_published_values():
     assert isa_alt_m([101325.0])[0] == pytest.approx(0.0, abs=1e-9)
 
 
+@pytest.mark.slow  # regenerates the table
 def test_committed_table_matches_generator(tmp_path):
     text, table = gen.generate()
     assert gen.OUTPUT.read_text() == text, "run: python tools/gen_altitude_table.py"

@@ -71,6 +71,7 @@ def assert_never_fires(dts, alts, accs, have):
         assert fc.state in (PAD, COAST, DROGUE) or fc.state < DROGUE
 
 
+@pytest.mark.slow  # 30 minutes of pad samples
 def test_long_pad_with_weather_drift_never_fires():
     # 30 minutes at 20 Hz; the pressure drifts by 30 m of altitude (a front passing)
     dts, alts, accs, have = pad(1800, rate=20, seed=1, drift_mm=30000)
