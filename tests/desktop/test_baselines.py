@@ -128,3 +128,22 @@ def test_lockout_after_launch():
     # the pad never reaches the threshold (it reads 9.81 or 6.81)
     fl = sm.simulate_monte_carlo(20, seed=2, pad_s=2.0)
     np.testing.assert_allclose(bl.launch_times(fl.time_s, fl.accel_mps2), fl.ignition_time_s + fl.time_s[1])
+
+
+def test_seed_kalman_equals_the_matrix_form_flight_by_flight():
+    """x = A x; x = x + K (z - H x), written with matrices, for several flights at once."""
+    rng = np.random.default_rng(3)
+    T = 0.05
+    alt = np.cumsum(rng.normal(5.0, 3.0, size=(3, 80)), axis=1)
+    acc = rng.normal(-9.0, 2.0, size=(3, 80))
+    K = bl.seed_kalman_gain(T)
+    A = bl.seed_transition(T)
+    H = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    s, v, a = bl.seed_kalman(alt, acc, T=T, K=K)
+    for i in range(3):
+        x = np.array([alt[i, 0], 0.0, acc[i, 0]])
+        for k in range(1, 80):
+            x = A @ x
+            x = x + K @ (np.array([alt[i, k], acc[i, k]]) - H @ x)
+            np.testing.assert_allclose([s[i, k], v[i, k], a[i, k]], x, rtol=1e-12, atol=1e-9)
+

@@ -12,7 +12,6 @@ import pytest
 from desktop.cli import main
 from desktop.io.flightcsv import read_flight_csv
 from desktop.io.rocket_file import load_rocket
-from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
 from desktop.sim.sensor_models import write_record
 from desktop.study import baselines
 from desktop.study import rocket_study as rm
@@ -140,15 +139,6 @@ def test_each_method_equals_a_direct_call(c6_settings, c6_serial, tmp_path):
     for name, d in got["detections"].items():
         if math.isfinite(d):
             assert got["true_velocity_at_detection"][name] == np.interp(d, traj.time_s, traj.velocity_mps)
-
-
-def test_fast_seed_kalman_is_bit_identical(c6_settings):
-    _draw, _traj, record = rm.simulate_flight(c6_settings, 0)
-    t, alt, acc = rm.baseline_inputs(rm.record_log(record))
-    T = round(baselines.sample_period_s(t), 4)
-    s_ref = baselines.seed_kalman(alt, acc - SEED_PAPER_G0_MPS2, T=T)[0][0]
-    s_fast = rm.seed_kalman_position(alt, acc - SEED_PAPER_G0_MPS2, T)
-    np.testing.assert_array_equal(s_fast, s_ref)
 
 
 def test_hold_fills_missing_readings():
