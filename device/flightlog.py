@@ -1,28 +1,10 @@
-"""Flight log: fixed-size binary records, buffered in RAM blocks, written to flash at safe points.
+"""Flight log writer: fixed-size binary records, buffered in RAM blocks, written to flash at safe
+points.
 
-Portable (MicroPython and CPython): the desktop decoder (``desktop/io/logdecode.py``) imports the
-format constants from here.
-
-File layout (``flight.log``)::
-
-    FILE_MAGIC (8 bytes) | header length (u32) | CRC-32 of the header (u32) | header (JSON, UTF-8)
-    block | block | ...                                   (BLOCK_SIZE bytes each)
-
-The header holds the firmware version, the board description, the flight configuration
-(``config``: the user-facing values), the sample period and the record layout.
-
-Block (BLOCK_SIZE = 2048 bytes)::
-
-    BLK_FMT header, 32 bytes: magic 'FBLK', sequence number, index of the first sample, number of
-    records, kind (0 data, 1 summary JSON, 2 note JSON), index of the sample at which the flight
-    computer whose records these are started (``fc_start``), CRC-32 of the whole block computed
-    with this field 0, 8 zero bytes; then up to BLOCK_RECORDS records of REC_SIZE bytes.
-
-Record (REC_FMT, 32 bytes, little-endian): what ``FlightComputer.step()`` was given (``dt_us``,
-``pressure_q4_pa`` (the altitude is ``shared.altitude.pressure_to_alt_mm`` of it),
-``accel_mmps2``, ``have``) and what it decided (filter ``alt_q4``/``vel_q4``/``acc_q4``,
-``state``, ``events``), plus ``flags`` (FLAG_*), the barometer temperature (0.01 degC) and the
-work time of the sample (read + step + outputs, us, saturated at 65535).
+The record and block layout, flags and CRC are in ``shared/logformat.py`` (shared with the desktop
+decoder, ``desktop/io/logdecode.py``); this module adds the board's side: the RAM ring of blocks
+and the file's JSON header (the firmware version, the board description, the flight configuration
+(``config``: the user-facing values), the sample period and the record layout).
 
 Power loss: a block is written whole and the file flushed after each block, so a power loss loses
 at most the block being written (the decoder checks every block's CRC and sequence number) and
@@ -32,38 +14,35 @@ written to flash in boost or coast (DESIGN.md D5: flash programming stalls the C
 
 import struct
 
-try:
-    from binascii import crc32
-except ImportError:  # pragma: no cover - ports without binascii.crc32
-    from zlib import crc32
+from shared.logformat import (  # noqa: F401 - FLAG_*, KIND_*, FORMAT_VERSION and REC_* are the board's API
+    BLK_CRC_OFFSET,
+    BLK_FMT,
+    BLK_HDR,
+    BLK_MAGIC,
+    BLOCK_RECORDS,
+    BLOCK_SIZE,
+    FILE_HDR_FMT,
+    FILE_MAGIC,
+    FLAG_MISSED,
+    FLAG_PYRO_DROGUE,
+    FLAG_PYRO_MAIN,
+    FLAG_RESUMED,
+    FLAG_SENSOR_ERROR,
+    FORMAT_VERSION,
+    KIND_DATA,
+    KIND_NOTE,
+    KIND_SUMMARY,
+    REC_FIELDS,
+    REC_FMT,
+    REC_SIZE,
+    block_crc_ok,
+    crc32,
+)
 
 try:
     from array import array
 except ImportError:  # pragma: no cover
     array = None
-
-FORMAT_VERSION = 1
-FILE_MAGIC = b"AFCLOG1\n"
-FILE_HDR_FMT = "<II"  # header length, CRC-32 of the header
-REC_FMT = "<IiiiiiBBBBhH"
-REC_SIZE = 32
-REC_FIELDS = ("dt_us", "pressure_q4_pa", "accel_mmps2", "alt_q4", "vel_q4", "acc_q4", "have", "state",
-              "events", "flags", "temp_cdeg", "work_us")
-BLOCK_SIZE = 2048
-BLK_FMT = "<IIIHHII"
-BLK_HDR = 32
-BLOCK_RECORDS = (BLOCK_SIZE - BLK_HDR) // REC_SIZE  # 63
-BLK_MAGIC = 0x4B4C4246  # b"FBLK" read as a little-endian u32
-BLK_CRC_OFFSET = 20
-KIND_DATA = 0
-KIND_SUMMARY = 1
-KIND_NOTE = 2
-
-FLAG_PYRO_DROGUE = 1  # output level after this sample
-FLAG_PYRO_MAIN = 2
-FLAG_SENSOR_ERROR = 4  # a sensor read failed in this sample
-FLAG_MISSED = 8  # dt_us covers missed sample deadlines
-FLAG_RESUMED = 16  # first sample after a reset in flight (the state was restored)
 
 
 PAD_EPOCH_S = 4  # device/flightloop.py: a new flight computer takes over on the pad this often
@@ -250,10 +229,3 @@ def file_header(header_json):
     data = header_json.encode()
     return FILE_MAGIC + struct.pack(FILE_HDR_FMT, len(data), crc32(data) & 0xFFFFFFFF) + data
 
-
-def block_crc_ok(block):
-    """Check one block's CRC (CPython and MicroPython; allocates)."""
-    stored = struct.unpack_from("<I", block, BLK_CRC_OFFSET)[0]
-    tmp = bytearray(block)
-    struct.pack_into("<I", tmp, BLK_CRC_OFFSET, 0)
-    return crc32(tmp) & 0xFFFFFFFF == stored

@@ -1,6 +1,6 @@
 """Decode a board's flight log (``flight.log``) into a flight CSV: ``python -m desktop logdecode``.
 
-The log format is defined in ``device/flightlog.py``. The decoder checks every block (magic, CRC,
+The log format is defined in ``shared/logformat.py``. The decoder checks every block (magic, CRC,
 sequence number), keeps the records of the flight computer that was in use at the end of the log
 (the board starts a fresh one every few seconds on the pad: ``device/flightloop.py``, "pad
 epochs"), and writes them as a flight CSV (docs/FLIGHT_CSV.md) that replays through the same
@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from device import flightlog as fl
+from shared import logformat as fl
 
 _REC_DTYPE = np.dtype([
     ("dt_us", "<u4"), ("pressure_q4_pa", "<i4"), ("accel_mmps2", "<i4"), ("alt_q4", "<i4"),
@@ -281,7 +281,7 @@ def check_replay(csv_path, config_path):
 def register(subparsers):
     p = subparsers.add_parser(
         "logdecode", help="decode a board flight log (flight.log) into a flight CSV",
-        description="Check and decode the binary flight log the board writes (device/flightlog.py) into "
+        description="Check and decode the binary flight log the board writes (shared/logformat.py) into "
                     "a flight CSV (docs/FLIGHT_CSV.md) and the board's configuration (JSON), so that "
                     "'python -m desktop replay FLIGHT.csv --config FLIGHT.config.json' reproduces the "
                     "board's decisions sample for sample.")
