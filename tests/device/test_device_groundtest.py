@@ -22,7 +22,7 @@ ALTOS = REPO_ROOT / "tests" / "data" / "flights" / "altos" / "2012-09-29-serial-
 
 GUEST_PRELUDE = """
 import json, os
-from tests.support.sil import fake_machine, fake_time
+from desktop.hosts.sil import fake_machine, fake_time
 fake_machine.install()
 import machine
 os.chdir({workdir!r})
@@ -123,7 +123,7 @@ def test_boot_py_falls_back_to_board_json(tmp_path):
     wd = _workdir(tmp_path)
     code = """
 import json, os
-from tests.support.sil import fake_machine
+from desktop.hosts.sil import fake_machine
 fake_machine.install()
 import machine
 for n in (16, 17):
@@ -143,7 +143,7 @@ def test_bench_flight_matches_desktop_replay(tmp_path):
     assert [n for _i, n in expected][:3] == ["launch", "burnout", "apogee"]
     code = """
 import json, os
-from tests.support.sil import fake_machine, fake_time
+from desktop.hosts.sil import fake_machine, fake_time
 fake_machine.install()
 os.chdir(%r)
 from device.benchflight import main
@@ -164,7 +164,7 @@ def test_bench_flight_refused_when_armed(tmp_path):
     bench_file(ALTOS, None, wd / "bench.bin")
     code = """
 import os
-from tests.support.sil import fake_machine
+from desktop.hosts.sil import fake_machine
 fake_machine.install()
 fake_machine.set_input(22, 0)
 os.chdir(%r)

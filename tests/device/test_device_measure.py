@@ -1,6 +1,6 @@
 """Per-sample time and allocation of the whole flight loop on real MicroPython.
 
-Runs ``tests/support/sil/measure.py``: the loop body (``FlightLoop.sample`` and the safe point
+Runs ``tests/support/sil_measure.py``: the loop body (``FlightLoop.sample`` and the safe point
 ``after_sample``) over a simulated flight, on the unix port (64-bit) and on the 32-bit wasm build
 (31-bit small ints, as on an RP2040: an intermediate past 2**30 would allocate). Prints the figures
 quoted in docs/FIRMWARE.md (run with ``pytest -s``).
@@ -11,8 +11,8 @@ import json
 import pytest
 
 from desktop.hosts.micropython import REPO_ROOT, run_micropython
-from tests.support.sil.flightgen import Scenario
-from tests.support.sil.host import prepare
+from desktop.hosts.sil.flightgen import Scenario
+from desktop.hosts.sil.host import prepare
 
 pytestmark = pytest.mark.micropython
 
@@ -28,7 +28,7 @@ def test_loop_is_allocation_free_and_timed(tmp_path, interp, samples):
     else:
         frames = prepare(tmp_path, sc)
         opts = {"frames": str(frames), "workdir": str(tmp_path), "samples": samples}
-    out = run_micropython("from tests.support.sil.measure import main\nmain(%r)\n" % (opts,), interp)
+    out = run_micropython("from tests.support.sil_measure import main\nmain(%r)\n" % (opts,), interp)
     res = json.loads(out.split("MEASURE ")[1].splitlines()[0])
     print("\n" + json.dumps(res, indent=1))
     assert res["heap_locked_ok"]

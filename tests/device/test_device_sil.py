@@ -1,6 +1,6 @@
 """Software in the loop: the firmware (device/boot.py, device/main.py and everything they import)
 runs unchanged on the MicroPython unix port, with fake ``machine``/``time`` modules and the
-register-level sensor fakes fed by a simulated flight (tests/support/sil/). The sample step runs under
+register-level sensor fakes fed by a simulated flight (desktop/hosts/sil/). The sample step runs under
 ``micropython.heap_lock()`` (``device.flightloop.LOCK_HEAP``): any allocation in it raises.
 
 The fake clock starts 40 s before ``ticks_us`` wraps at 2**30, so every run crosses the wrap.
@@ -12,9 +12,9 @@ import json
 import numpy as np
 import pytest
 
+from desktop.hosts.sil.flightgen import Scenario
+from desktop.hosts.sil.host import ARM_PIN, DROGUE_PIN, MAIN_PIN, rises, run_sil
 from desktop.io.logdecode import check_replay, read_log, to_columns, write_csv
-from tests.support.sil.flightgen import Scenario
-from tests.support.sil.host import ARM_PIN, DROGUE_PIN, MAIN_PIN, rises, run_sil
 
 pytestmark = pytest.mark.micropython
 

@@ -5,7 +5,7 @@ descent under the drogue to the ground, plus knocks (accelerometer spikes) and p
 sensor faults. ``write_frames(path, scenario)`` samples it every ``frame_us`` and turns it into the
 raw data registers the register-level fakes (desktop/fakes) hold: barometer words through
 ``FakeBMP390.encode_pressure`` (the inverse of the Bosch compensation for the fake's calibration),
-accelerometer counts through ``FakeADXL375.set_truth``. ``tests/support/sil/world.py`` replays them on the
+accelerometer counts through ``FakeADXL375.set_truth``. ``desktop/hosts/sil/world.py`` replays them on the
 guest.
 """
 
@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from desktop.hosts.sil.world import FLAG_BARO_NEW, HDR_FMT, MAGIC
 from desktop.sim.fakes import FakeADXL375, FakeBMP390
-from tests.support.sil.world import FLAG_BARO_NEW, HDR_FMT, MAGIC
 
 G = 9.80665
 

@@ -6,7 +6,7 @@
   level); ``schedule_input(pin, level, at_us)`` changes an input at a simulated time.
 - ``I2C``/``SoftI2C``: wrap the ``desktop.sim.fakes.FakeI2CBus`` registered in ``BUSES[id]``; each
   transaction advances the clock by its bus time (9 bits per byte at ``freq``) and lets ``WORLD``
-  (``tests/support/sil/world.py``) publish the sensor data of the current simulated time first.
+  (``desktop/hosts/sil/world.py``) publish the sensor data of the current simulated time first.
 - ``Timer``: one-shot and periodic timers on the simulated clock (callbacks run from the clock).
 - ``WDT``: a watchdog on the simulated clock; starving it raises ``WatchdogReset`` (a simulated
   reset: the harness "reboots" with ``reset_cause() == WDT_RESET`` and the RTC memory kept).
@@ -20,8 +20,8 @@
 import sys
 from array import array
 
+from desktop.hosts.sil import fake_micropython, fake_time
 from desktop.sim.fakes.i2c_bus import AllocatingReads
-from tests.support.sil import fake_micropython, fake_time
 
 PWRON_RESET = 1
 HARD_RESET = 2
@@ -143,9 +143,9 @@ def install(origin_us=0):
 
 def install_world(frames_path):
     """Bus 0 with a BMP390 at 0x77 and an ADXL375 at 0x53, fed by the frames file; returns the
-    World (tests/support/sil/world.py). Call after ``install()``."""
+    World (desktop/hosts/sil/world.py). Call after ``install()``."""
+    from desktop.hosts.sil.world import World
     from desktop.sim.fakes import FakeADXL375, FakeBMP390, FakeI2CBus
-    from tests.support.sil.world import World
 
     bus = FakeI2CBus()
     world = World(frames_path, bus.add(0x77, FakeBMP390()), bus.add(0x53, FakeADXL375()))

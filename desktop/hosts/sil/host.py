@@ -5,7 +5,7 @@ import shutil
 from pathlib import Path
 
 from desktop.hosts.micropython import REPO_ROOT, run_micropython
-from tests.support.sil.flightgen import write_frames
+from desktop.hosts.sil.flightgen import write_frames
 
 PICO = REPO_ROOT / "device" / "boards" / "pico.json"
 ARM_PIN = 22  # pico.json: arming switch to GND (active low, pull-up)
@@ -43,7 +43,7 @@ def run_sil(workdir, scenario, board=None, config=None, inputs=None, adc=None, o
             "adc": adc, "origin_us": origin_us, "lock_heap": lock_heap, "rtc_memory": rtc_memory}
     if end_us is not None:
         opts["end_us"] = end_us
-    out = run_micropython("from tests.support.sil.runner import main\nmain(%r)\n" % (opts,), interp)
+    out = run_micropython("from desktop.hosts.sil.runner import main\nmain(%r)\n" % (opts,), interp)
     console = []
     result = None
     for line in out.splitlines():

@@ -1,7 +1,7 @@
 """The simulated world of a software-in-the-loop run: publishes precomputed sensor data into the
 register-level fakes at the simulated time (MicroPython and CPython).
 
-The frames file (written on the host by ``tests/support/sil/flightgen.py``) holds, every ``frame_us``, the
+The frames file (written on the host by ``desktop/hosts/sil/flightgen.py``) holds, every ``frame_us``, the
 raw data registers of a BMP3xx barometer (0x04..0x09, published only on frames where the
 barometer completes a conversion, which also sets its data-ready bits) and of an ADXL375
 accelerometer (0x32..0x37), and up to two stalls: at a frame, the bus transaction in progress
@@ -14,7 +14,7 @@ given frame on.
 
 import struct
 
-from tests.support.sil import fake_time
+from desktop.hosts.sil import fake_time
 
 MAGIC = 0x57534C49  # b"ILSW"
 # magic, frame_us, frames, kill_baro_frame, kill_accel_frame (-1: never), two stalls (frame, us)

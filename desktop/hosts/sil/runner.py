@@ -1,7 +1,7 @@
 """Guest side of a software-in-the-loop run (MicroPython unix port; CPython works too).
 
 ``run(opts)`` installs the fake ``machine``/``time``/``micropython``, builds the I2C bus with the
-register-level fakes fed by ``tests/support/sil/world.py``, changes to the work directory (board.json,
+register-level fakes fed by ``desktop/hosts/sil/world.py``, changes to the work directory (board.json,
 config.json, pyro_pins.txt there, as on a board's filesystem), runs ``device/boot.py`` and then
 ``device/main.py`` unchanged, and returns what happened as a dict (printed as JSON by the tests).
 A watchdog bite reboots: boot.py and main.py run again with the RTC memory kept.
@@ -11,7 +11,7 @@ import json
 import os
 import sys
 
-from tests.support.sil import fake_machine, fake_micropython, fake_time
+from desktop.hosts.sil import fake_machine, fake_micropython, fake_time
 
 
 def _forget_firmware():

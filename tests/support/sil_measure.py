@@ -17,7 +17,7 @@ It then re-runs ``sample()`` with the heap locked (any allocation raises MemoryE
 import gc
 import sys
 
-from tests.support.sil import fake_machine, fake_time
+from desktop.hosts.sil import fake_machine, fake_time
 
 _WASI = getattr(sys.implementation, "_build", "") == "wasi"
 
