@@ -14,6 +14,7 @@ COMMANDS = (
     ("replay", "desktop.review.replay"),
     ("simulate", "desktop.sim.simulate"),
     ("logdecode", "desktop.io.logdecode"),
+    ("sil", "desktop.hosts.sil.command"),
 )
 
 

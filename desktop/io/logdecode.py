@@ -239,42 +239,20 @@ def write_csv(log, out_csv, config_out=None):
 
 
 def check_replay(csv_path, config_path):
-    """Replay the decoded CSV through shared/ and compare with the board's columns.
+    """Replay the decoded CSV through shared/ and compare with the board's columns
+    (``desktop.review.logcheck.differences``).
 
-    Returns (samples compared, list of mismatch descriptions)."""
+    Returns (samples compared, list of at most 10 mismatch descriptions)."""
     from desktop.io.flightcsv import read_flight_csv
-    from desktop.review.replay import config_for, replay
-    from desktop.review.replay import readings as replay_readings
-    from shared.flight import FlightComputer
+    from desktop.review.logcheck import differences
+    from desktop.review.replay import config_for
 
     log = read_flight_csv(csv_path)
-    config = config_for(log, config_path)
-    result = replay(log, config)
-    board_state = log.extra["board_state"].astype(np.int64)
-    board_events = log.extra["board_events"].astype(np.int64)
     problems = []
-    bad = np.flatnonzero(result.state.astype(np.int64) != board_state)
-    if len(bad):
-        i = int(bad[0])
-        problems.append(f"state differs at row {i}: replay {int(result.state[i])}, "
-                        f"board {int(board_state[i])}")
-    # events and filter state: step again, sample by sample
-    dt_us, alt_mm, accel, have = replay_readings(log)
-    from desktop.review.replay import ground_alt_mm
-
-    fc = FlightComputer(config, ground_alt_mm=ground_alt_mm(log))
-    alt_b = log.extra["board_alt_q4"]
-    vel_b = log.extra["board_vel_q4"]
-    acc_b = log.extra["board_acc_q4"]
-    for i in range(len(log)):
-        fc.step(int(dt_us[i]), int(alt_mm[i]), int(accel[i]), int(have[i]))
-        if fc.events != board_events[i] and len(problems) < 10:
-            problems.append(f"events differ at row {i}: replay {fc.events}, board {int(board_events[i])}")
-        if not np.isnan(alt_b[i]):
-            kf = fc.kf
-            board = (int(alt_b[i]), int(vel_b[i]), int(acc_b[i]))
-            if (kf.alt_q4, kf.vel_q4, kf.acc_q4) != board and len(problems) < 10:
-                problems.append(f"filter state differs at row {i}")
+    for row, what in differences(log, config_for(log, config_path)):
+        problems.append(f"row {row}: {what}")
+        if len(problems) == 10:
+            break
     return len(log), problems
 
 

@@ -159,10 +159,17 @@ def register(subparsers):
     p.add_argument("--main-altitude", type=float, metavar="M", help="main deployment altitude, m AGL")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--plot", metavar="OUT.png", help="write a plot of the replay")
+    p.add_argument("--check", action="store_true",
+                   help="FILE is a board log (flight.log): exit 1 at the first sample whose state, events "
+                        "or pyro outputs differ from the desktop replay, 0 when all match")
     p.set_defaults(func=run)
 
 
 def run(args):
+    if args.check:
+        from desktop.review.logcheck import run_check
+
+        return run_check(args.file, args.config)
     try:
         log = read_flight_csv(args.file)
         overrides = {}

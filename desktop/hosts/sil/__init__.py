@@ -5,5 +5,5 @@ Fake ``machine``, ``time`` and ``micropython`` modules (``fake_machine``, ``fake
 (``desktop/sim/fakes``) from a precomputed flight (``world``, written by ``flightgen``), the guest
 side that boots the board (``runner``) and the host side that prepares its files and runs it
 (``host``). The guest modules run on the MicroPython unix port and on CPython; the ``sil`` command
-(``desktop/hosts/sil_command.py``) and tests/device/test_device_sil.py use them.
+(``command.py``) and tests/device/test_device_sil.py use them.
 """

@@ -2,8 +2,9 @@
 
 ``Scenario`` describes the truth: pad, boost at constant acceleration, drag-free coast, a steady
 descent under the drogue to the ground, plus knocks (accelerometer spikes) and pressure steps, and
-sensor faults. ``write_frames(path, scenario)`` samples it every ``frame_us`` and turns it into the
-raw data registers the register-level fakes (desktop/fakes) hold: barometer words through
+sensor faults; ``Recording`` is a recorded flight (a flight CSV's pressure and specific force).
+``write_frames(path, scenario)`` and ``write_recording_frames(path, recording)`` sample them every
+``frame_us`` and turn them into the raw data registers the register-level fakes (desktop/fakes) hold: barometer words through
 ``FakeBMP390.encode_pressure`` (the inverse of the Bosch compensation for the fake's calibration),
 accelerometer counts through ``FakeADXL375.set_truth``. ``desktop/hosts/sil/world.py`` replays them on the
 guest.
@@ -70,42 +71,117 @@ class Scenario:
         hb = 0.5 * self.boost_mps2 * self.burn_s ** 2
         return self.launch_s + self.burn_s + vb / G, hb + vb * vb / (2 * G)
 
+    def write(self, path):
+        """Write the frames file; returns the number of frames."""
+        return write_frames(path, self)
+
+
+class FrameWriter:
+    """The frames file: a header, then one frame per ``frame_us`` with the barometer's data
+    registers (when it completed a conversion in that frame) and the accelerometer's."""
+
+    def __init__(self, frame_us, n, temp_c, kill_baro_frame=-1, kill_accel_frame=-1, stalls=()):
+        st = list(stalls) + [(-1, 0), (-1, 0)]
+        self.out = bytearray(struct.pack(HDR_FMT, MAGIC, frame_us, n, kill_baro_frame, kill_accel_frame,
+                                         st[0][0], st[0][1], st[1][0], st[1][1]))
+        self.baro = FakeBMP390()
+        self.raw_t = self.baro.encode_temp(temp_c)
+        self.raw_p = 0
+        self.acc = FakeADXL375()
+        self.acc.regs[0x2D] = 0x08  # measuring
+        self.acc.regs[0x31] = 0x0B
+
+    def add(self, pressure_pa, force_mps2):
+        """One frame: ``pressure_pa`` a new barometer conversion (None: none in this frame),
+        ``force_mps2`` the specific force along the long axis."""
+        flags = 0
+        if pressure_pa is not None:
+            self.raw_p = self.baro.encode_pressure(pressure_pa, self.raw_t)
+            flags = FLAG_BARO_NEW
+        self.acc.set_truth((0.0, 0.0, force_mps2))
+        raw_p, raw_t = self.raw_p, self.raw_t
+        self.out.append(flags)
+        self.out += bytes((raw_p & 0xFF, (raw_p >> 8) & 0xFF, raw_p >> 16,
+                           raw_t & 0xFF, (raw_t >> 8) & 0xFF, raw_t >> 16))
+        self.out += bytes(self.acc.regs[0x32:0x38])
+
+    def save(self, path):
+        with open(path, "wb") as fh:
+            fh.write(self.out)
+
 
 def write_frames(path, sc):
+    """Frames of the scenario ``sc``; returns the number of frames."""
     n = int(round(sc.duration_s * 1e6 / sc.frame_us))
     rng = np.random.default_rng(sc.seed)
-    baro = FakeBMP390()
-    raw_t = baro.encode_temp(sc.temp_c)
-    acc = FakeADXL375()
-    acc.regs[0x2D] = 0x08  # measuring
-    acc.regs[0x31] = 0x0B
     kill_b = -1 if sc.kill_baro_s is None else int(sc.kill_baro_s * 1e6 // sc.frame_us)
     kill_a = -1 if sc.kill_accel_s is None else int(sc.kill_accel_s * 1e6 // sc.frame_us)
-    st = [(int(t * 1e6 // sc.frame_us), int(us)) for t, us in sc.stalls] + [(-1, 0), (-1, 0)]
-    out = bytearray(struct.pack(HDR_FMT, MAGIC, sc.frame_us, n, kill_b, kill_a, st[0][0], st[0][1],
-                                st[1][0], st[1][1]))
-    raw_p = 0
+    stalls = [(int(t * 1e6 // sc.frame_us), int(us)) for t, us in sc.stalls]
+    frames = FrameWriter(sc.frame_us, n, sc.temp_c, kill_b, kill_a, stalls)
     for i in range(n):
         t = i * sc.frame_us / 1e6
         h, _v, f = sc.truth(t)
         for t0, dur, extra in sc.knocks:
             if t0 <= t < t0 + dur:
                 f += extra
-        flags = 0
+        p = None
         if i % sc.baro_every == 0:
             p = isa_pressure_pa(sc.site_alt_m + h) + rng.normal(0.0, sc.noise_pa)
             for t0, dur, dp in sc.pressure_steps:
                 if t0 <= t < t0 + dur:
                     p += dp
-            raw_p = baro.encode_pressure(p, raw_t)
-            flags = FLAG_BARO_NEW
-        acc.set_truth((0.0, 0.0, f + rng.normal(0.0, sc.noise_mps2)))
-        out.append(flags)
-        out += bytes((raw_p & 0xFF, (raw_p >> 8) & 0xFF, raw_p >> 16,
-                      raw_t & 0xFF, (raw_t >> 8) & 0xFF, raw_t >> 16))
-        out += bytes(acc.regs[0x32:0x38])
-    with open(path, "wb") as fh:
-        fh.write(out)
+        frames.add(p, f + rng.normal(0.0, sc.noise_mps2))
+    frames.save(path)
+    return n
+
+
+@dataclass
+class Recording:
+    """A recorded flight as the SIL world's source: the log's samples held between rows, after
+    ``pad_s`` of the first row's readings (the board powers up, arms and calibrates on the pad
+    first) and followed by ``tail_s`` of the last row's (so the board sees the landing and
+    writes its log). A log time ``t`` is simulated time ``t - time_s[0] + pad_s``."""
+
+    time_s: np.ndarray
+    pressure_pa: np.ndarray
+    accel_mps2: np.ndarray
+    pad_s: float = 30.0
+    tail_s: float = 20.0
+    frame_us: int = 5000
+    baro_every: int = 4  # frames per barometer conversion (5 ms frames: 50 Hz)
+    temp_c: float = 15.0
+
+    @property
+    def duration_s(self):
+        return self.pad_s + float(self.time_s[-1] - self.time_s[0]) + self.tail_s
+
+    def offset_s(self):
+        """Simulated time minus log time."""
+        return self.pad_s - float(self.time_s[0])
+
+    def write(self, path):
+        """Write the frames file; returns the number of frames."""
+        return write_recording_frames(path, self)
+
+
+def _held(time_s, values, at_s):
+    """The last finite value at or before each time of ``at_s`` (the first finite value before it)."""
+    ok = np.isfinite(values)
+    t, v = time_s[ok], values[ok]
+    idx = np.searchsorted(t, at_s, side="right") - 1
+    return v[np.clip(idx, 0, len(v) - 1)]
+
+
+def write_recording_frames(path, rec):
+    """Frames of a recorded flight (``Recording``); returns the number of frames."""
+    n = int(round(rec.duration_s * 1e6 / rec.frame_us))
+    log_t = np.arange(n) * (rec.frame_us / 1e6) - rec.offset_s()
+    pressure = _held(rec.time_s, rec.pressure_pa, log_t)
+    force = _held(rec.time_s, rec.accel_mps2, log_t)
+    frames = FrameWriter(rec.frame_us, n, rec.temp_c)
+    for i in range(n):
+        frames.add(float(pressure[i]) if i % rec.baro_every == 0 else None, float(force[i]))
+    frames.save(path)
     return n
 
 

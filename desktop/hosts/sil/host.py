@@ -4,8 +4,7 @@ import json
 import shutil
 from pathlib import Path
 
-from desktop.hosts.micropython import REPO_ROOT, run_micropython
-from desktop.hosts.sil.flightgen import write_frames
+from desktop.hosts.micropython import REPO_ROOT, MicroPythonError, run_micropython
 
 PICO = REPO_ROOT / "device" / "boards" / "pico.json"
 ARM_PIN = 22  # pico.json: arming switch to GND (active low, pull-up)
@@ -17,6 +16,8 @@ ORIGIN_NEAR_WRAP = (1 << 30) - 40_000_000  # ticks_us wraps 40 s into the run
 
 
 def prepare(workdir, scenario, board=None, config=None, pyro_pins=True):
+    """The board's files in ``workdir`` (board.json: pico.json updated with ``board``; config.json;
+    pyro_pins.txt) and the frames file of ``scenario`` (a flightgen Scenario or Recording)."""
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)
     desc = json.loads(PICO.read_text())
@@ -27,7 +28,7 @@ def prepare(workdir, scenario, board=None, config=None, pyro_pins=True):
         pins = (desc["pyro"]["drogue"]["pin"], desc["pyro"]["main"]["pin"])
         (workdir / "pyro_pins.txt").write_text("%d %d\n" % pins)
     frames = workdir / "frames.bin"
-    write_frames(frames, scenario)
+    scenario.write(frames)
     return frames
 
 
@@ -51,7 +52,8 @@ def run_sil(workdir, scenario, board=None, config=None, inputs=None, adc=None, o
             result = json.loads(line[len("SILRESULT "):])
         else:
             console.append(line)
-    assert result is not None, out[-3000:]
+    if result is None:
+        raise MicroPythonError("the software-in-the-loop guest printed no result:\n" + out[-3000:])
     result["console"] = console
     result["log"] = Path(workdir) / "flight.log"
     return result
