@@ -14,6 +14,7 @@ COMMANDS = (
     ("replay", "desktop.review.replay"),
     ("simulate", "desktop.sim.simulate"),
     ("logdecode", "desktop.io.logdecode"),
+    ("import", "desktop.io.importers"),
     ("sil", "desktop.hosts.sil.command"),
 )
 

@@ -11,7 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from desktop.io.flightcsv import FlightCSVError, read_flight_csv
+from desktop.io.flightcsv import FlightCSVError
+from desktop.io.importers import read_flight
 from shared.altitude import pressure_to_alt_mm
 from shared.config import ConfigError, load_config, load_config_file
 from shared.detector import HAVE_ACCEL, HAVE_BARO
@@ -154,7 +155,7 @@ def register(subparsers):
                     "shared/ code the board runs, and print the events: launch, burnout, apogee, "
                     "drogue, main, landed, with their time in the file's time base and the filtered "
                     "altitude above the pad.")
-    p.add_argument("file", help="flight CSV")
+    p.add_argument("file", help="flight CSV, or an export docs/IMPORT.md lists (format detected)")
     p.add_argument("--config", help="flight configuration JSON (docs/CONFIG.md); defaults otherwise")
     p.add_argument("--main-altitude", type=float, metavar="M", help="main deployment altitude, m AGL")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
@@ -171,7 +172,7 @@ def run(args):
 
         return run_check(args.file, args.config)
     try:
-        log = read_flight_csv(args.file)
+        log = read_flight(args.file)
         overrides = {}
         if args.main_altitude is not None:
             overrides["main_deploy_m"] = args.main_altitude

@@ -47,11 +47,13 @@ def register(subparsers):
     p.add_argument("--out", required=True, metavar="DIR", help="folder for the board's files and flight.log")
     p.add_argument("--flight", metavar="FILE", help="recorded flight to fly (flight CSV or an "
                    "importable export: docs/IMPORT.md); default: a simulated flight")
-    p.add_argument("--config", metavar="CONFIG.json", help="the board's flight configuration (docs/CONFIG.md)")
+    p.add_argument("--config", metavar="CONFIG.json",
+                   help="the board's flight configuration (docs/CONFIG.md)")
     p.add_argument("--seed", type=int, default=1, help="noise seed of the simulated flight (default 1)")
     p.add_argument("--boost", type=float, default=60.0, metavar="M/S2",
                    help="simulated flight: boost acceleration (default 60)")
-    p.add_argument("--burn", type=float, default=1.5, metavar="S", help="simulated flight: burn time (default 1.5)")
+    p.add_argument("--burn", type=float, default=1.5, metavar="S",
+                   help="simulated flight: burn time (default 1.5)")
     p.add_argument("--descent", type=float, default=20.0, metavar="M/S",
                    help="simulated flight: descent rate under the drogue (default 20)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
@@ -115,6 +117,7 @@ def run(args):
         print(f"  decode: {report['decode']}")
         print(f"  check:  {report['check']}")
     if not result["log"].exists():
-        print(f"error: the board wrote no {result['log'].name} (it ended with: {result['end']})", file=sys.stderr)
+        print(f"error: the board wrote no {result['log'].name} (it ended with: {result['end']})",
+              file=sys.stderr)
         return 1
     return 0

@@ -4,10 +4,10 @@
 descent under the drogue to the ground, plus knocks (accelerometer spikes) and pressure steps, and
 sensor faults; ``Recording`` is a recorded flight (a flight CSV's pressure and specific force).
 ``write_frames(path, scenario)`` and ``write_recording_frames(path, recording)`` sample them every
-``frame_us`` and turn them into the raw data registers the register-level fakes (desktop/fakes) hold: barometer words through
-``FakeBMP390.encode_pressure`` (the inverse of the Bosch compensation for the fake's calibration),
-accelerometer counts through ``FakeADXL375.set_truth``. ``desktop/hosts/sil/world.py`` replays them on the
-guest.
+``frame_us`` and turn them into the raw data registers the register-level fakes
+(desktop/sim/fakes) hold: barometer words through ``FakeBMP390.encode_pressure`` (the inverse of
+the Bosch compensation for the fake's calibration), accelerometer counts through
+``FakeADXL375.set_truth``. ``desktop/hosts/sil/world.py`` replays them on the guest.
 """
 
 import math
