@@ -104,14 +104,19 @@ def run(args):
         "decode": f"python -m desktop logdecode {result['log']} --out {out / 'flight.csv'}",
         "check": f"python -m desktop replay --check {result['log']}",
     }
-    if isinstance(source, Recording):
-        report["log_time_offset_s"] = source.offset_s()
+    if isinstance(source, Recording):  # the pulses on the recorded flight's own time axis
+        offset = source.offset_s()
+        report["drogue_pulses_log_s"] = [round(t - offset, 3) for t in report["drogue_pulses_s"]]
+        report["main_pulses_log_s"] = [round(t - offset, 3) for t in report["main_pulses_s"]]
     if args.json:
         print(json.dumps(report, indent=2))
     else:
         print(f"{report['log']}: board ended with '{report['reason']}', max altitude "
               f"{report['max_altitude_m']:.1f} m; drogue pulse at {report['drogue_pulses_s']} s, main at "
               f"{report['main_pulses_s']} s (simulated time)")
+        if "drogue_pulses_log_s" in report:
+            print(f"  on {args.flight}'s time axis: drogue {report['drogue_pulses_log_s']} s, main "
+                  f"{report['main_pulses_log_s']} s")
         for code, text in report["errors"]:
             print(f"  board error {code}: {text}")
         print(f"  decode: {report['decode']}")
