@@ -160,6 +160,9 @@ def register(subparsers):
     p.add_argument("--main-altitude", type=float, metavar="M", help="main deployment altitude, m AGL")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--plot", metavar="OUT.png", help="write a plot of the replay")
+    p.add_argument("--report", metavar="DIR", help="write the flight review: DIR/report.png (one page) "
+                   "and DIR/report.md (summary), with the board's own decisions when the log holds them")
+    p.add_argument("--units", choices=("m", "ft"), default="m", help="units of the review (default m)")
     p.add_argument("--check", action="store_true",
                    help="FILE is a board log (flight.log): exit 1 at the first sample whose state, events "
                         "or pyro outputs differ from the desktop replay, 0 when all match")
@@ -185,6 +188,14 @@ def run(args):
         from desktop.review.plot import plot_replay
 
         plot_replay(result, log, config, args.plot)
+    if args.report:
+        from desktop.review.report import write_report
+
+        try:
+            write_report(result, log, config, args.report, args.units)
+        except OSError as exc:
+            print(f"error: {args.report}: cannot write the report: {exc.strerror or exc}", file=sys.stderr)
+            return 2
     if args.json:
         print(json.dumps({
             "file": args.file,

@@ -56,6 +56,7 @@ def test_board_family_and_configuration(tmp_path, source, layout, board):
         assert log.metadata["firmware"] == "1.0.3"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("layout", ["v5", "v6-TeleMega"])
 def test_imported_flight_replays_like_the_converted_one(tmp_path, source, layout):
     log = read_flight(_export(tmp_path, source, layout))
