@@ -8,9 +8,10 @@ Figures (``summary``): apogee (filtered altitude above the pad), maximum speed a
 (speed of sound of the ISA atmosphere at that altitude), maximum acceleration (the filter's
 kinematic estimate, and the accelerometer's largest specific force), burnout, descent rates
 under drogue and main (median filtered descent rate from ``SETTLE_S`` after the deployment
-to the next event, above 5% of the apogee), flight time (launch to landing). The board's decisions come from the log's own
-columns: ``altos_state`` (AltosUI exports: the first row in each state; AltOS writes state
-records up to 0.1 s late) or ``board_events`` (this project's decoded board logs).
+to the next event, above 5% of the apogee), flight time (launch to landing). The board's
+decisions come from the log's own columns: ``altos_state`` (AltosUI exports: the first row in
+each state; AltOS writes state records up to 0.1 s late) or ``board_events`` (this project's
+decoded board logs).
 """
 
 import math
