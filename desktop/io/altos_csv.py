@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from desktop.io.flightcsv import FlightCSVError
+from shared.physics import G0_MPS2
 
-G_MPS2 = 9.80665
 ALTOS_MISSING = 2147483647.0
 #: Minimum spacing of kept rows (s): the board's sensor period less half a tick, by flight phase.
 ASCENT_SPACING_S = 0.0095
@@ -182,7 +182,7 @@ def read_altos_csv(path):
                              f"{PRESSURE_RANGE_PA[1]:.0f})")
     columns = {"time_s": time_s[keep], "pressure_pa": pressure}
     if "acceleration" in index:
-        columns["accel_mps2"] = column("acceleration") + G_MPS2
+        columns["accel_mps2"] = column("acceleration") + G0_MPS2
     for name, out in _CARRIED:
         if name == "state_name":
             columns[out] = np.array([states[i] for i in keep], dtype=object)

@@ -27,8 +27,8 @@ from matplotlib.patches import Patch  # noqa: E402
 
 from shared.altitude import pressure_to_alt_mm  # noqa: E402
 from shared.flight import EVENT_NAMES, STATE_NAMES  # noqa: E402
+from shared.physics import G0_MPS2  # noqa: E402
 
-G_MPS2 = 9.80665
 FT_PER_M = 1 / 0.3048
 SETTLE_S = 2.0  # a parachute's opening transient, left out of its descent rate
 # Descent rates use only samples above this fraction of the apogee: not the rocket on the ground
@@ -143,11 +143,11 @@ def summary(result, log, units):
     i_a = int(np.nanargmax(result.acc_mps2))
     amax = float(result.acc_mps2[i_a])
     rows.append(("max acceleration",
-                 f"{amax * u.factor:.1f} {u.accel} ({amax / G_MPS2:.1f} g) at {t[i_a]:.2f} s"))
+                 f"{amax * u.factor:.1f} {u.accel} ({amax / G0_MPS2:.1f} g) at {t[i_a]:.2f} s"))
     if log.has_accel:
         fmax = float(np.nanmax(log.accel_mps2))
         rows.append(("max accelerometer",
-                     f"{fmax * u.factor:.1f} {u.accel} ({fmax / G_MPS2:.1f} g) specific force"))
+                     f"{fmax * u.factor:.1f} {u.accel} ({fmax / G0_MPS2:.1f} g) specific force"))
     if "burnout" in ev:
         b = ev["burnout"]
         rows.append(("burnout", f"{b.time_s:.2f} s at {b.altitude_m * u.factor:.1f} {u.name}"))
@@ -245,12 +245,12 @@ def figure(result, log, config, units, summ, title):
     ax_vel.plot(t, result.vel_mps * u.factor, color="C1", lw=1.2, label="filtered velocity")
     ax_vel.axhline(0, color="0.5", lw=0.8)
     if log.accel_mps2 is not None:
-        ax_acc.plot(t, (log.accel_mps2 - G_MPS2) * u.factor, ".", ms=1.5, color="0.6",
+        ax_acc.plot(t, (log.accel_mps2 - G0_MPS2) * u.factor, ".", ms=1.5, color="0.6",
                     label="accelerometer − g")
     ax_acc.plot(t, result.acc_mps2 * u.factor, color="C3", lw=1.2, label="filtered acceleration")
     _limits(ax_alt, result.agl_m * u.factor, result.raw_agl_m * u.factor)
     _limits(ax_acc, result.acc_mps2 * u.factor,
-            None if log.accel_mps2 is None else (log.accel_mps2 - G_MPS2) * u.factor)
+            None if log.accel_mps2 is None else (log.accel_mps2 - G0_MPS2) * u.factor)
     board, _source = board_decisions(log)
     first = {e.event: e for e in reversed(result.events)}
     if "launch" in first:  # a long pad (a board log) would squeeze the flight into a corner

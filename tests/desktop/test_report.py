@@ -15,6 +15,7 @@ from desktop.io.importers import read_flight
 from desktop.review.logcheck import load_decoded
 from desktop.review.replay import config_for, replay
 from desktop.review.report import UNITS, figure, summary
+from shared.physics import G0_MPS2
 from tests.support import altos_export
 
 EXAMPLE_LOG = "examples/logs/sil_flight.log"
@@ -23,7 +24,7 @@ FT = 0.3048
 # examples/logs/sil_flight.log was flown with flightgen's Scenario(seed=1) defaults: 60 m/s^2 for
 # 1.5 s from 30 s, drag-free coast, 20 m/s descent, a pad 300 m above sea level
 BURNOUT_SPEED_MPS = 90.0
-APOGEE_M = 0.5 * 60 * 1.5**2 + 90.0**2 / (2 * 9.80665)
+APOGEE_M = 0.5 * 60 * 1.5**2 + 90.0**2 / (2 * G0_MPS2)
 DESCENT_MPS = 20.0
 SITE_M = 300.0
 
@@ -108,7 +109,7 @@ def test_summary_of_a_known_flight_in_metres(sil):
     assert _number(_value(summ, "burnout")) == pytest.approx(1.5, abs=0.3)
     assert _number(_value(summ, "descent under drogue")) == pytest.approx(DESCENT_MPS, abs=1)
     # launch at 0 s; landed declared some seconds after touchdown (APOGEE time + fall)
-    touchdown_s = 1.5 + BURNOUT_SPEED_MPS / 9.80665 + APOGEE_M / DESCENT_MPS
+    touchdown_s = 1.5 + BURNOUT_SPEED_MPS / G0_MPS2 + APOGEE_M / DESCENT_MPS
     assert touchdown_s < _number(_value(summ, "flight time")) < touchdown_s + 20
     assert _value(summ, "flight time").endswith("to landing")
 

@@ -9,7 +9,8 @@ carried forward, several rows per printed time and the extra temperature/voltage
 descent samples, as AltosUI writes them.
 """
 
-G = 9.80665
+from shared.physics import G0_MPS2 as G
+
 MISSING = "2147483647.00"
 
 V5_COMMENTS = [

@@ -18,8 +18,9 @@ import numpy as np
 
 from desktop.hosts.sil.world import FLAG_BARO_NEW, HDR_FMT, MAGIC
 from desktop.sim.fakes import FakeADXL375, FakeBMP390
+from shared.physics import G0_MPS2
 
-G = 9.80665
+G = G0_MPS2
 
 
 def isa_pressure_pa(alt_msl_m):
