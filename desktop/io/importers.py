@@ -31,19 +31,11 @@ def _first_lines(path):
 
 
 def detect_format(path):
-    """The format of the file at ``path`` (one of FORMATS); FlightCSVError when none fits."""
-    lines = _first_lines(path)
-    if any(altos_csv.is_header(line) for line in lines):
+    """The format of the file at ``path`` (one of FORMATS): an export whose signature is found in
+    its first lines, else ``flight-csv`` (whose reader then names any problem precisely)."""
+    if any(altos_csv.is_header(line) for line in _first_lines(path)):
         return "altos"
-    for line in lines:
-        stripped = line.strip()
-        if not stripped or stripped.startswith("#"):
-            continue
-        if "time_s" in [c.strip() for c in stripped.split(",")]:
-            return "flight-csv"
-        break
-    raise FlightCSVError(str(path), None, "unknown format: neither a flight CSV (no 'time_s' header) "
-                         "nor an AltosUI CSV export; docs/IMPORT.md lists the formats read")
+    return "flight-csv"
 
 
 def convert(path, fmt=None):
@@ -86,6 +78,11 @@ def run(args):
     try:
         fmt = args.format or detect_format(args.file)
         if fmt == "flight-csv":
+            try:
+                read_flight_csv(args.file)
+            except FlightCSVError as exc:
+                raise FlightCSVError(args.file, None, "unknown format: not an export docs/IMPORT.md lists, "
+                                     f"nor a flight CSV ({exc.problem})") from None
             raise FlightCSVError(args.file, None, "already a flight CSV; nothing to import")
         columns, metadata, comments = convert(args.file, fmt)
         write_flight_csv(args.out, columns, metadata=metadata, comments=comments)

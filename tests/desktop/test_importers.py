@@ -125,11 +125,13 @@ def test_altos_missing_value_is_an_empty_cell(tmp_path, source):
 def test_unknown_format_and_cli_errors(tmp_path, capsys):
     other = tmp_path / "other.csv"
     other.write_text("Time,Alt,Velocity\n0,0,0\n")
-    with pytest.raises(FlightCSVError, match="unknown format"):
-        detect_format(other)
+    assert detect_format(other) == "flight-csv"  # the flight-CSV reader names the problem
+    with pytest.raises(FlightCSVError, match="no 'time_s' column"):
+        read_flight(other)
     assert main(["import", str(other), "-o", str(tmp_path / "x.csv")]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and err.count("\n") == 1
+    assert "unknown format" in err and "no 'time_s' column" in err
     assert main(["import", FLIGHT, "-o", str(tmp_path / "x.csv")]) == 2
     assert "already a flight CSV" in capsys.readouterr().err
     assert main(["replay", str(other)]) == 2
