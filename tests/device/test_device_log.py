@@ -42,7 +42,10 @@ def make_log(path, rate_hz=50, seed=3, ram_kb=512, header_extra=None):
             have = 3 if i % 2 == 0 else 2  # barometer at half the rate
             fc.step(period, pressure_to_alt_mm(q4), acc, have)
             kf = fc.kf
-            log.record(period, q4, acc, kf.alt_q4, kf.vel_q4, kf.acc_q4, have, fc.state, fc.events, 0,
+            # pyro output levels, as device/flightloop.py logs them
+            flags = (fl.FLAG_PYRO_DROGUE if fc.pyro_drogue else 0) | (
+                fl.FLAG_PYRO_MAIN if fc.pyro_main else 0)
+            log.record(period, q4, acc, kf.alt_q4, kf.vel_q4, kf.acc_q4, have, fc.state, fc.events, flags,
                        1500, 100)
         log.write_all(f)
         log.write_text(f, fl.KIND_SUMMARY, json.dumps({"reason": "test", "max_agl_mm": fc.max_agl_mm}))
