@@ -45,6 +45,10 @@ OTHER_COLOUR = "#ffffff"  # AltOS states with no counterpart here (startup, idle
 DECISIONS = (("launch", "boost"), ("burnout", "coast"), ("drogue", "drogue"), ("main", "main"),
              ("landed", "landed"))
 PAGE_IN = (11.69, 8.27)  # A4 landscape
+# An igniter channel showing at least this voltage on the first row has an igniter; when its
+# voltage falls below this fraction of that, the igniter has burnt open (the charge fired).
+IGNITER_CONTINUITY_MIN_V = 1.0
+IGNITER_OPEN_FRACTION = 0.5
 PAD_SHOWN_S = 3.0  # pad time shown before the launch
 RAW_SHOWN_PERCENTILES = (0.5, 99.5)  # raw readings inside these percentiles set the y limits
 
@@ -88,6 +92,22 @@ def ground_msl_m(result, log):
         alt_m = pressure_to_alt_mm(int(round(log.pressure_pa[i] * 16))) / 1000
         return alt_m - float(result.raw_agl_m[i])
     return None
+
+
+def igniters_opened(log):
+    """{channel: time s} at which an igniter's continuity voltage (the ``*_sense_v`` columns of an
+    import) fell below IGNITER_OPEN_FRACTION of its value in the first row: the charge fired and
+    the igniter burnt open."""
+    opened = {}
+    for name, values in log.extra.items():
+        if not name.endswith("_sense_v") or values.dtype.kind != "f" or not np.isfinite(values[0]):
+            continue
+        if values[0] < IGNITER_CONTINUITY_MIN_V:
+            continue  # no igniter on this channel
+        low = np.flatnonzero(values < IGNITER_OPEN_FRACTION * values[0])
+        if len(low):
+            opened[name[: -len("_sense_v")]] = float(log.time_s[low[0]])
+    return opened
 
 
 def board_decisions(log):
@@ -179,6 +199,9 @@ def summary(result, log, units):
             diff = f"{ours_t - board_t:+.2f} s" if ours_t is not None and board_t is not None else "-"
             decisions.append((ours_name, "-" if ours_t is None else f"{ours_t:.2f} s",
                               "-" if board_t is None else f"{board_t:.2f} s", diff))
+    opened = igniters_opened(log)
+    if opened:
+        rows.append(("board's igniters open", ", ".join(f"{name} {t:.2f} s" for name, t in opened.items())))
     return Summary(rows, decisions, source, notes)
 
 

@@ -138,6 +138,23 @@ def test_board_decisions_beside_ours(tmp_path, sil):
     assert abs(float(rows["drogue"][3].split()[0])) < 0.5
 
 
+def test_board_igniter_firing_from_the_continuity_voltage(tmp_path):
+    src = read_flight_csv(ALTOS)
+    path = tmp_path / "easymega.csv"
+    names = altos_export.write_v6(path, src, "EasyMega")
+    j_time, j_drogue = names.index("time"), names.index("drogue_voltage")
+    lines = path.read_text().splitlines()
+    for k in range(1, len(lines)):
+        cells = lines[k].split(",")
+        if float(cells[j_time]) >= 16.69:  # the charge burns the igniter open (a 10 Hz row)
+            cells[j_drogue] = " 0.05"
+        lines[k] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    log = read_flight(path)
+    summ = summary(replay(log, config_for(log)), log, UNITS["m"])
+    assert _value(summ, "board's igniters open") == "drogue 16.69 s"  # main never fired: not listed
+
+
 @pytest.mark.slow
 def test_replay_report_command_writes_png_and_markdown(tmp_path, capsys):
     out = tmp_path / "review"
