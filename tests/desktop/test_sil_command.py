@@ -75,3 +75,12 @@ def test_sil_refuses_a_flight_without_accelerometer(tmp_path, capsys):
     assert main(["sil", "--out", str(tmp_path / "b"), "--flight", str(flight)]) == 2
     assert "no accelerometer readings" in capsys.readouterr().err
     assert main(["sil", "--out", str(tmp_path / "b"), "--flight", str(tmp_path / "none.csv")]) == 2
+
+
+def test_sil_refuses_a_bad_configuration_or_output(tmp_path, capsys):
+    cfg = tmp_path / "cfg.json"
+    cfg.write_text(json.dumps({"main_deploy_m": -5}))
+    assert main(["sil", "--out", str(tmp_path / "b"), "--config", str(cfg)]) == 2
+    assert "main_deploy_m" in capsys.readouterr().err
+    assert main(["sil", "--out", str(cfg)]) == 2
+    assert "not a folder" in capsys.readouterr().err
