@@ -46,7 +46,8 @@ def test_altos_export_imports_to_the_flight_samples(tmp_path, source, layout):
 
 
 @pytest.mark.parametrize("layout, board", [("v5", "TeleMetrum-v1.2"), ("v6-TeleMetrum", "TeleMetrum"),
-                                           ("v6-TeleMega", "TeleMega"), ("v6-EasyMega", "EasyMega"),
+                                           ("v6-TeleMega", "TeleMega"), ("v6-TeleMega-telemetry", "TeleMega"),
+                                           ("v6-EasyMega", "EasyMega"),
                                            ("v6-EasyMini", "EasyMini or TeleMini (no accelerometer)")])
 def test_board_family_and_configuration(tmp_path, source, layout, board):
     log = read_flight(_export(tmp_path, source, layout))

@@ -35,11 +35,12 @@ GPS_V6 = ("connected,locked,nsat,latitude,longitude,altitude,year,month,day,hour
 # version 6 column groups per family (AltosCSV: has_accel, has_pyro, has_battery, 3-D accel + IMU,
 # extra igniters, GPS)
 FAMILIES = {
-    "TeleMetrum": dict(call=True, accel=True, imu=False, igniters=False, gps=True),
-    "TeleMega": dict(call=True, accel=True, imu=True, igniters=True, gps=True),
-    "EasyMega": dict(call=False, accel=True, imu=True, igniters=True, gps=False),
-    "EasyMini": dict(call=False, accel=False, imu=False, igniters=False, gps=False),
-    "TeleMini": dict(call=True, accel=False, imu=False, igniters=False, gps=False),
+    "TeleMetrum": dict(call=True, radio=False, accel=True, imu=False, igniters=False, gps=True),
+    "TeleMega": dict(call=True, radio=False, accel=True, imu=True, igniters=True, gps=True),
+    "TeleMega-telemetry": dict(call=True, radio=True, accel=True, imu=True, igniters=True, gps=True),
+    "EasyMega": dict(call=False, radio=False, accel=True, imu=True, igniters=True, gps=False),
+    "EasyMini": dict(call=False, radio=False, accel=False, imu=False, igniters=False, gps=False),
+    "TeleMini": dict(call=True, radio=False, accel=False, imu=False, igniters=False, gps=False),
 }
 
 
@@ -85,8 +86,8 @@ def write_v5(path, log):
 def write_v6(path, log, family):
     """A version-6 export of ``family`` (FAMILIES) as the current AltosUI writes it."""
     f = FAMILIES[family]
-    names = ["version", "serial", "flight"] + (["call"] if f["call"] else []) + ["time", "state",
-                                                                                 "state_name"]
+    names = ["version", "serial", "flight"] + (["call"] if f["call"] else []) + ["time"]
+    names += (["rssi", "lqi"] if f["radio"] else []) + ["state", "state_name"]
     names += (["acceleration"] if f["accel"] else []) + ["pressure", "altitude", "height", "speed",
                                                          "temperature", "drogue_voltage", "main_voltage",
                                                          "battery_voltage"]
@@ -99,9 +100,8 @@ def write_v6(path, log, family):
     lines = ["#" + ",".join(names)]
     ground = _alt(float(log.pressure_pa[0]))
     for t, p, acc, state, _sensor in records(log):
-        row = ["6", " 1018", " 3"] + (["KC1QJA"] if f["call"] else []) + ["%8.2f" % t,
-                                                                           "%2d" % STATE_CODES[state],
-                                                                           "%8s" % state]
+        row = ["6", " 1018", " 3"] + (["KC1QJA"] if f["call"] else []) + ["%8.2f" % t]
+        row += (["%4d" % -71, "%3d" % 6] if f["radio"] else []) + ["%2d" % STATE_CODES[state], "%8s" % state]
         row += (["%8.2f" % acc] if f["accel"] else []) + ["%10.2f" % p, "%8.2f" % _alt(p),
                                                           "%8.2f" % (_alt(p) - ground), "%8.2f" % 0.0,
                                                           "%5.1f" % 20.0, "%5.2f" % 3.7,
