@@ -5,7 +5,8 @@ flight-CSV columns. The layout and its quirks are documented for users in docs/I
   by name, the first of each name: an export has two ``altitude`` columns (the barometric altitude,
   then the GPS one), and version 5 writers ran the last basic name into the first IMU name
   (``main_voltageaccel_x``) and listed fewer IMU names than values, so only the names up to the
-  igniter voltages are trusted, and rows may hold more cells than the header has names.
+  igniter voltages are trusted, and rows may hold more cells than the header has names; from
+  version 6 every row has one cell per name.
 - ``time``: seconds from AltosUI's boost time (negative on the pad). AltosUI writes one row per log
   record of any kind, carrying every other value forward, so several rows share a printed time
   and rows of temperature, voltage and GPS records repeat the last sensor values. The board logs
@@ -147,6 +148,9 @@ def read_altos_csv(path):
         if not line.strip() or line.startswith("#"):
             continue
         cells = [c.strip() for c in line.split(",")]
+        if cells[0] != "5" and len(cells) != len(names):  # from version 6 the header is exact
+            raise FlightCSVError(spath, lineno, f"row has {len(cells)} cells, the header {len(names)} "
+                                 "names (an export written with a decimal comma?)")
         if rows and len(cells) != len(rows[0]):
             raise FlightCSVError(spath, lineno, f"row has {len(cells)} cells, the rows before it "
                                  f"{len(rows[0])}")

@@ -91,6 +91,7 @@ def _lines(path):
 @pytest.mark.parametrize("edit, message", [
     (lambda ls: ls[:2] + [ls[3], ls[2]] + ls[4:], "time goes back"),
     (lambda ls: ls[:3] + [ls[3] + ",1"] + ls[4:], "row has"),
+    (lambda ls: ls[:3] + [ls[3].replace(".", ",", 1)] + ls[4:], "decimal comma"),
     (lambda ls: [ls[0].replace("pressure", "press")] + ls[1:], "no 'pressure' column"),
 ])
 def test_bad_altos_exports_are_one_line_errors(tmp_path, source, edit, message):
