@@ -17,7 +17,8 @@ epochs"), and writes them as a flight CSV (docs/FLIGHT_CSV.md) that replays thro
 
 It also writes the board's configuration next to the CSV (``FLIGHT.config.json``): replay with
 ``python -m desktop replay FLIGHT.csv --config FLIGHT.config.json``. ``--check`` does that replay
-and compares every sample's state and events (and filter state where logged) with the board's.
+and compares every sample's state, events and pyro outputs (and filter state where logged) with the
+board's (``differences``, also behind ``python -m desktop replay --check LOG``).
 """
 
 import json
@@ -29,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from shared import logformat as fl
+from shared.flight import EVENT_NAMES, STATE_NAMES, FlightComputer
 
 _REC_DTYPE = np.dtype([
     ("dt_us", "<u4"), ("pressure_q4_pa", "<i4"), ("accel_mmps2", "<i4"), ("alt_q4", "<i4"),
@@ -238,13 +240,47 @@ def write_csv(log, out_csv, config_out=None):
     return Path(out_csv), Path(config_out)
 
 
+def _names(events):
+    return "+".join(name for bit, name in enumerate(EVENT_NAMES) if events & (1 << bit)) or "none"
+
+
+def differences(log, config):
+    """Yield ``(row, description)`` for every row of a decoded board log (a FlightLog with the
+    ``board_*`` columns) whose replay through ``config`` differs from the board: state, events,
+    pyro outputs, and the filter state where the board logged it."""
+    from desktop.review.replay import ground_alt_mm, readings
+
+    dt_us, alt_mm, accel, have = readings(log)
+    fc = FlightComputer(config, ground_alt_mm=ground_alt_mm(log))
+    state_b = log.extra["board_state"].astype(np.int64)
+    events_b = log.extra["board_events"].astype(np.int64)
+    flags_b = log.extra["board_flags"].astype(np.int64)
+    filt_b = [log.extra[name] for name in ("board_alt_q4", "board_vel_q4", "board_acc_q4")]
+    kf = fc.kf
+    for i in range(len(log)):
+        fc.step(int(dt_us[i]), int(alt_mm[i]), int(accel[i]), int(have[i]))
+        found = []
+        if fc.state != state_b[i]:
+            found.append(f"state: replay {STATE_NAMES[fc.state]}, board {STATE_NAMES[int(state_b[i])]}")
+        if fc.events != events_b[i]:
+            found.append(f"events: replay {_names(fc.events)}, board {_names(int(events_b[i]))}")
+        pyro_b = (bool(flags_b[i] & fl.FLAG_PYRO_DROGUE), bool(flags_b[i] & fl.FLAG_PYRO_MAIN))
+        if (bool(fc.pyro_drogue), bool(fc.pyro_main)) != pyro_b:
+            found.append(f"pyro (drogue, main): replay {(int(fc.pyro_drogue), int(fc.pyro_main))}, "
+                         f"board {(int(pyro_b[0]), int(pyro_b[1]))}")
+        if not np.isnan(filt_b[0][i]):
+            board = tuple(int(col[i]) for col in filt_b)
+            if (kf.alt_q4, kf.vel_q4, kf.acc_q4) != board:
+                found.append(f"filter state: replay {(kf.alt_q4, kf.vel_q4, kf.acc_q4)}, board {board}")
+        if found:
+            yield i, "; ".join(found)
+
+
 def check_replay(csv_path, config_path):
-    """Replay the decoded CSV through shared/ and compare with the board's columns
-    (``desktop.review.logcheck.differences``).
+    """Replay the decoded CSV through shared/ and compare with the board's columns (``differences``).
 
     Returns (samples compared, list of at most 10 mismatch descriptions)."""
     from desktop.io.flightcsv import read_flight_csv
-    from desktop.review.logcheck import differences
     from desktop.review.replay import config_for
 
     log = read_flight_csv(csv_path)
