@@ -16,9 +16,10 @@ epochs"), and writes them as a flight CSV (docs/FLIGHT_CSV.md) that replays thro
   while this flight computer was still the pad's "shadow"), ``temp_c``, ``board_work_us``.
 
 It also writes the board's configuration next to the CSV (``FLIGHT.config.json``): replay with
-``python -m desktop replay FLIGHT.csv --config FLIGHT.config.json``. ``--check`` does that replay
-and compares every sample's state, events and pyro outputs (and filter state where logged) with the
-board's (``differences``, also behind ``python -m desktop replay --check LOG``).
+``python -m desktop replay FLIGHT.csv --config FLIGHT.config.json``. ``--check`` steps the
+board's own integer inputs, record by record, through ``shared/`` with the board's configuration
+and compares every sample's state, events and pyro outputs (and filter state where logged) with
+the board's (``differences``; ``python -m desktop replay --check LOG`` stops at the first one).
 """
 
 import json
@@ -30,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from shared import logformat as fl
+from shared.altitude import pressure_to_alt_mm
 from shared.flight import EVENT_NAMES, STATE_NAMES, FlightComputer
 
 _REC_DTYPE = np.dtype([
@@ -165,8 +167,10 @@ def read_log(path):
     return log
 
 
-def to_columns(log):
-    """The flight-CSV columns (dict) and metadata for the rows of the final flight computer."""
+def final_rows(log):
+    """(records, owned, time_us) of the final flight computer's rows: ``owned`` is False on the
+    rows logged while it was still the pad's shadow (their filter fields are the previous one's);
+    ``time_us`` is the sum of the board's ``dt_us``, 0 at the launch sample (or the first row)."""
     keep = log.sample >= log.fc_start
     r = log.records[keep]
     if not len(r):
@@ -177,6 +181,13 @@ def to_columns(log):
     launch = np.flatnonzero(r["events"] & EV_LAUNCH)
     if len(launch):
         t_us = t_us - t_us[launch[0]]
+    return r, own, t_us
+
+
+def to_columns(log):
+    """The flight-CSV columns (dict) and metadata for the rows of the final flight computer."""
+    r, own, t_us = final_rows(log)
+    keep = log.sample >= log.fc_start
     have = r["have"]
     q4 = r["pressure_q4_pa"].astype(np.int64)
     pressure = np.empty(len(r), dtype=object)
@@ -244,52 +255,68 @@ def _names(events):
     return "+".join(name for bit, name in enumerate(EVENT_NAMES) if events & (1 << bit)) or "none"
 
 
-def differences(log, config):
-    """Yield ``(row, description)`` for every row of a decoded board log (a FlightLog with the
-    ``board_*`` columns) whose replay through ``config`` differs from the board: state, events,
-    pyro outputs, and the filter state where the board logged it."""
-    from desktop.review.replay import ground_alt_mm, readings
+def differences(inputs, board, config, ground_alt_mm=None):
+    """Yield ``(row, description)`` for every row whose step through a FlightComputer with
+    ``config`` differs from what the board logged: state, events, pyro outputs, and the filter
+    state where the board logged it (not NaN).
 
-    dt_us, alt_mm, accel, have = readings(log)
-    fc = FlightComputer(config, ground_alt_mm=ground_alt_mm(log))
-    state_b = log.extra["board_state"].astype(np.int64)
-    events_b = log.extra["board_events"].astype(np.int64)
-    flags_b = log.extra["board_flags"].astype(np.int64)
-    filt_b = [log.extra[name] for name in ("board_alt_q4", "board_vel_q4", "board_acc_q4")]
+    ``inputs``: the integer ``(dt_us, alt_mm, accel_mmps2, have)`` arrays the board's step was
+    given; ``board``: arrays ``state``, ``events``, ``flags``, ``alt_q4``, ``vel_q4``, ``acc_q4``."""
+    dt_us, alt_mm, accel, have = inputs
+    fc = FlightComputer(config, ground_alt_mm=ground_alt_mm)
     kf = fc.kf
-    for i in range(len(log)):
+    filt_b = (board["alt_q4"], board["vel_q4"], board["acc_q4"])
+    for i in range(len(dt_us)):
         fc.step(int(dt_us[i]), int(alt_mm[i]), int(accel[i]), int(have[i]))
         found = []
-        if fc.state != state_b[i]:
-            found.append(f"state: replay {STATE_NAMES[fc.state]}, board {STATE_NAMES[int(state_b[i])]}")
-        if fc.events != events_b[i]:
-            found.append(f"events: replay {_names(fc.events)}, board {_names(int(events_b[i]))}")
-        pyro_b = (bool(flags_b[i] & fl.FLAG_PYRO_DROGUE), bool(flags_b[i] & fl.FLAG_PYRO_MAIN))
+        state_b, events_b, flags_b = int(board["state"][i]), int(board["events"][i]), int(board["flags"][i])
+        if fc.state != state_b:
+            found.append(f"state: replay {STATE_NAMES[fc.state]}, board {STATE_NAMES[state_b]}")
+        if fc.events != events_b:
+            found.append(f"events: replay {_names(fc.events)}, board {_names(events_b)}")
+        pyro_b = (bool(flags_b & fl.FLAG_PYRO_DROGUE), bool(flags_b & fl.FLAG_PYRO_MAIN))
         if (bool(fc.pyro_drogue), bool(fc.pyro_main)) != pyro_b:
             found.append(f"pyro (drogue, main): replay {(int(fc.pyro_drogue), int(fc.pyro_main))}, "
                          f"board {(int(pyro_b[0]), int(pyro_b[1]))}")
         if not np.isnan(filt_b[0][i]):
-            board = tuple(int(col[i]) for col in filt_b)
-            if (kf.alt_q4, kf.vel_q4, kf.acc_q4) != board:
-                found.append(f"filter state: replay {(kf.alt_q4, kf.vel_q4, kf.acc_q4)}, board {board}")
+            logged = tuple(int(col[i]) for col in filt_b)
+            if (kf.alt_q4, kf.vel_q4, kf.acc_q4) != logged:
+                found.append(f"filter state: replay {(kf.alt_q4, kf.vel_q4, kf.acc_q4)}, board {logged}")
         if found:
             yield i, "; ".join(found)
 
 
-def check_replay(csv_path, config_path):
-    """Replay the decoded CSV through shared/ and compare with the board's columns (``differences``).
+def board_config(log, config_path=None):
+    """The configuration the board flew (the log header's), or the JSON file ``config_path``."""
+    from shared.config import load_config, load_config_file
 
-    Returns (samples compared, list of at most 10 mismatch descriptions)."""
-    from desktop.io.flightcsv import read_flight_csv
-    from desktop.review.replay import config_for
+    return load_config_file(config_path) if config_path else load_config(log.config)
 
-    log = read_flight_csv(csv_path)
+
+def log_differences(log, config):
+    """``differences`` of a decoded board log's final flight computer, straight from its records.
+
+    Returns (time_us per row, generator of (row, description))."""
+    r, own, t_us = final_rows(log)
+    q4 = r["pressure_q4_pa"].astype(np.int64)
+    have = r["have"].astype(np.int64)
+    alt_mm = np.array([pressure_to_alt_mm(int(p)) if h & HAVE_BARO else 0 for p, h in zip(q4, have, strict=True)])
+    inputs = (r["dt_us"].astype(np.int64), alt_mm, r["accel_mmps2"].astype(np.int64), have)
+    board = {name: r[name].astype(np.int64) for name in ("state", "events", "flags")}
+    for name in ("alt_q4", "vel_q4", "acc_q4"):
+        board[name] = np.where(own, r[name], np.nan)
+    return t_us, differences(inputs, board, config)
+
+
+def check_log(log, config):
+    """(rows compared, at most 10 descriptions of the rows that differ) of a decoded board log."""
+    t_us, found = log_differences(log, config)
     problems = []
-    for row, what in differences(log, config_for(log, config_path)):
+    for row, what in found:
         problems.append(f"row {row}: {what}")
         if len(problems) == 10:
             break
-    return len(log), problems
+    return len(t_us), problems
 
 
 def register(subparsers):
@@ -329,7 +356,7 @@ def run(args):
         "replay": f"python -m desktop replay {csv_path} --config {cfg_path}",
     }
     if args.check:
-        n, problems = check_replay(csv_path, cfg_path)
+        n, problems = check_log(log, board_config(log))
         report["check"] = {"samples": n, "identical": not problems, "differences": problems}
     if args.json:
         print(json.dumps(report, indent=2))

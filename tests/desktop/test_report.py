@@ -12,7 +12,7 @@ from matplotlib.text import Text
 from desktop.cli import main
 from desktop.io.flightcsv import read_flight_csv, write_flight_csv
 from desktop.io.importers import read_flight
-from desktop.review.logcheck import load_decoded
+from desktop.io.logdecode import read_log, write_csv
 from desktop.review.replay import config_for, replay
 from desktop.review.report import UNITS, figure, summary
 from shared.physics import G0_MPS2
@@ -31,7 +31,9 @@ SITE_M = 300.0
 
 @pytest.fixture(scope="module")
 def sil(tmp_path_factory):
-    log, config = load_decoded(EXAMPLE_LOG, None, tmp_path_factory.mktemp("sil"))
+    csv, cfg = write_csv(read_log(EXAMPLE_LOG), tmp_path_factory.mktemp("sil") / "flight.csv")
+    log = read_flight_csv(csv)
+    config = config_for(log, cfg)
     return log, config, replay(log, config)
 
 

@@ -11,12 +11,13 @@ import struct
 import numpy as np
 import pytest
 
-from desktop.io.logdecode import LogDecodeError, check_replay, read_log, write_csv
+from desktop.io.logdecode import LogDecodeError, board_config, check_log, read_log, write_csv
 from device import flightlog as fl
 from device.status import digits_pattern
 from shared.altitude import pressure_to_alt_mm
 from shared.config import load_config
 from shared.flight import FlightComputer
+from tests.support.decoded_replay import check_replay
 from tools.synthetic_flight import make_flight
 
 
@@ -66,6 +67,7 @@ def test_log_replays_bit_identically(tmp_path):
     csv, cfg = write_csv(log, tmp_path / "flight.csv")
     n, problems = check_replay(csv, cfg)
     assert not problems and n == len(log.records)
+    assert check_log(log, board_config(log)) == (n, [])  # the records themselves, without the CSV
     text = csv.read_text()
     assert "ground_pressure_pa" not in text  # the board calibrated on its pad: so must the replay
     row = [x for x in text.splitlines() if x[:1].isdigit() or x[:1] == "-"][0].split(",")

@@ -14,7 +14,8 @@ import pytest
 
 from desktop.hosts.sil.flightgen import Scenario
 from desktop.hosts.sil.host import ARM_PIN, DROGUE_PIN, MAIN_PIN, rises, run_sil
-from desktop.io.logdecode import check_replay, read_log, to_columns, write_csv
+from desktop.io.logdecode import read_log, to_columns, write_csv
+from tests.support.decoded_replay import check_replay
 
 pytestmark = pytest.mark.micropython
 
