@@ -300,7 +300,8 @@ def log_differences(log, config):
     r, own, t_us = final_rows(log)
     q4 = r["pressure_q4_pa"].astype(np.int64)
     have = r["have"].astype(np.int64)
-    alt_mm = np.array([pressure_to_alt_mm(int(p)) if h & HAVE_BARO else 0 for p, h in zip(q4, have, strict=True)])
+    alt_mm = np.array([pressure_to_alt_mm(int(p)) if h & HAVE_BARO else 0
+                       for p, h in zip(q4, have, strict=True)])
     inputs = (r["dt_us"].astype(np.int64), alt_mm, r["accel_mmps2"].astype(np.int64), have)
     board = {name: r[name].astype(np.int64) for name in ("state", "events", "flags")}
     for name in ("alt_q4", "vel_q4", "acc_q4"):
