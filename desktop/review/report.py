@@ -41,9 +41,10 @@ GAMMA_R = 1.4 * 287.053
 STATE_COLOURS = {"pad": "#dddddd", "boost": "#ffb870", "fast": "#ff7b7b", "coast": "#f2e86d",
                  "drogue": "#8fd98f", "main": "#7cc9f0", "landed": "#b7a6f0"}
 OTHER_COLOUR = "#ffffff"  # AltOS states with no counterpart here (startup, idle, invalid)
-# The board's decisions compared with ours: (our event, AltOS state entered at that decision).
-DECISIONS = (("launch", "boost"), ("burnout", "coast"), ("drogue", "drogue"), ("main", "main"),
-             ("landed", "landed"))
+# The board's decisions compared with ours: (our event, the AltOS states whose first entry is
+# that decision; after burnout AltOS goes to fast while still above its speed threshold, else coast).
+DECISIONS = (("launch", ("boost",)), ("burnout", ("fast", "coast")), ("drogue", ("drogue",)),
+             ("main", ("main",)), ("landed", ("landed",)))
 PAGE_IN = (11.69, 8.27)  # A4 landscape
 # An igniter channel showing at least this voltage on the first row has an igniter; when its
 # voltage falls below this fraction of that, the igniter has burnt open (the charge fired).
@@ -124,12 +125,12 @@ def board_decisions(log):
         states = [str(s) for s in log.extra["altos_state"]]
         first = {}
         for i, s in enumerate(states):
-            if s not in first and (i == 0 or states[i - 1] != s):
-                first[s] = float(log.time_s[i])
+            first.setdefault(s, float(log.time_s[i]))
         found = {}
         for ours, altos in DECISIONS:
-            if altos in first and first[altos] > log.time_s[0]:
-                found[ours] = first[altos]
+            entered = [first[s] for s in altos if s in first and first[s] > log.time_s[0]]
+            if entered:
+                found[ours] = min(entered)
         if "drogue" not in found and "main" in found:  # AltOS went straight to main (low apogee)
             found["drogue"] = found["main"]
         return found, "the AltOS board's logged states (altos_state; written up to 0.1 s late)"
