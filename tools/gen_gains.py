@@ -12,10 +12,12 @@ Two families of gains:
     Only for T = 0.05 s (the seed samples at 20 Hz); used to replicate the seed's study.
 
 ``project``
-    Converged (steady-state) gains from scipy's discrete algebraic Riccati solver (the
-    accelerometer-only filter, which has no finite Riccati solution, from the limit of the
-    recursion), for every sample rate the board supports. Noise parameters (SI units), chosen
-    as AltOS chose them after years of flights (docs/DESIGN.md D12):
+    Converged (steady-state) gains for every sample rate the board supports. The method follows
+    from observability: observable filters from scipy's discrete algebraic Riccati solver,
+    cross-checked against the limit of the Riccati recursion; the accelerometer-only filter, whose
+    altitude and velocity are unobservable (no stabilising Riccati solution), from the limit of
+    the recursion alone. Noise parameters (SI units), chosen as AltOS chose them after years of
+    flights (docs/DESIGN.md D12):
 
     - process noise: continuous white jerk, spectral density SIGMA_JERK^2 (m^2/s^5), discretised
       exactly: Q = q [[T^5/20, T^4/8, T^3/6], [T^4/8, T^3/3, T^2/2], [T^3/6, T^2/2, T]].
@@ -26,12 +28,15 @@ Two families of gains:
     - accelerometer: SIGMA_ACCEL_MPS2 = 2 m/s^2: noise, vibration and the unknown tilt between the
       rocket's axis and the vertical.
 
-Run ``python tools/gen_gains.py`` to rewrite the table, ``--check`` to verify the committed one,
+Run ``python tools/gen_gains.py`` to rewrite the table, ``--check`` to verify the committed one
+(every gain within one least significant bit),
 ``--print-seed`` to print the seed's K at T = 0.05 s.
 """
 
 import argparse
+import functools
 import math
+import runpy
 import sys
 import textwrap
 from pathlib import Path
@@ -108,35 +113,95 @@ def seed_gain(h=H_BOTH, r=SEED_R, t_s=SEED_T_S, q=SEED_Q, iterations=SEED_ITERAT
     return k
 
 
-def steady_gain(t_s, h, r, sigma_jerk=SIGMA_JERK):
-    """Converged gain K = P- H' (H P- H' + R)^-1, P- from scipy's discrete Riccati solver.
+# The Riccati solution must agree with the doubled recursion to this relative tolerance (both are
+# accurate to about 1e-12 at every supported rate; a disagreement means one of them failed).
+CROSS_CHECK_RTOL = 1e-9
+MAX_DOUBLINGS = 64
 
-    The accelerometer-only filter has unobservable altitude and velocity, so the Riccati equation
-    has no finite solution; its gain is the limit of the recursion (``iterated_gain``).
-    """
-    a = transition(t_s)
-    q = white_jerk_q(t_s, sigma_jerk)
-    try:
-        p_prior = scipy.linalg.solve_discrete_are(a.T, h.T, q, r)
-    except np.linalg.LinAlgError:
-        return iterated_gain(t_s, h, r, sigma_jerk)
+
+class GainError(RuntimeError):
+    """The gain computation failed: no convergence, or the two methods disagree."""
+
+
+def is_observable(a, h):
+    """True when (A, H) is observable: rank [H; HA; HA^2; ...] equals the number of states.
+
+    Every eigenvalue of the constant-acceleration model lies on the unit circle, so observable
+    and detectable coincide: observable filters have a stabilising Riccati solution."""
+    n = a.shape[0]
+    rows = [h]
+    for _ in range(n - 1):
+        rows.append(rows[-1] @ a)
+    return bool(np.linalg.matrix_rank(np.vstack(rows)) == n)
+
+
+def kalman_gain(p_prior, h, r):
+    """K = P- H' (H P- H' + R)^-1."""
     return p_prior @ h.T @ np.linalg.inv(h @ p_prior @ h.T + r)
 
 
-def iterated_gain(t_s, h, r, sigma_jerk=SIGMA_JERK, tol=1e-14, max_iterations=500000):
-    """Limit of the Riccati recursion from P = 0 (as AltOS's make-kalman computes its gains)."""
-    a = transition(t_s)
-    q = white_jerk_q(t_s, sigma_jerk)
-    p = np.zeros((3, 3))
+def doubled_recursion_prior(a, q, h, r, rtol=1e-15):
+    """Limit of the Riccati recursion P-(k+1) = A (P-(k) - P-(k) H' (H P-(k) H' + R)^-1 H P-(k)) A' + Q
+    from P- = 0, taken 2**j steps at a time (the structure-preserving doubling algorithm: its j-th
+    iterate is the recursion's 2**j-th, so it converges in tens of steps where the plain recursion
+    needs tens of thousands at 200 Hz). Only for observable filters, whose P- stays bounded."""
+    eye = np.eye(a.shape[0])
+    a_k = a.T.copy()
+    g_k = h.T @ np.linalg.inv(r) @ h
+    p_k = q.copy()
+    for _ in range(MAX_DOUBLINGS):
+        w = np.linalg.inv(eye + g_k @ p_k)
+        p_next = p_k + a_k.T @ p_k @ w @ a_k
+        g_k = g_k + a_k @ w @ g_k @ a_k.T
+        a_k = a_k @ w @ a_k
+        if np.max(np.abs(p_next - p_k)) <= rtol * np.max(np.abs(p_next)):
+            return p_next
+        p_k = p_next
+    raise GainError("the doubled Riccati recursion did not converge")
+
+
+def recursion_gain(a, q, h, r, tol=1e-14, max_iterations=500000):
+    """Limit of the gain of the Riccati recursion from P = 0, one step at a time (as AltOS's
+    make-kalman computes its gains). It converges for the accelerometer-only filter too, whose
+    altitude and velocity are unobservable: their variances grow without bound, the gains do not."""
+    p = np.zeros_like(a)
+    eye = np.eye(a.shape[0])
     k_prev = None
     for _ in range(max_iterations):
         p_prior = a @ p @ a.T + q
-        k = p_prior @ h.T @ np.linalg.inv(h @ p_prior @ h.T + r)
-        p = (np.eye(3) - k @ h) @ p_prior
+        k = kalman_gain(p_prior, h, r)
+        p = (eye - k @ h) @ p_prior
         if k_prev is not None and np.max(np.abs(k - k_prev)) < tol:
             return k
         k_prev = k
-    raise RuntimeError("Kalman gain did not converge for T=%g s" % t_s)
+    raise GainError("the Riccati recursion did not converge")
+
+
+def converged_gain(a, q, h, r):
+    """Steady-state Kalman gain of the model (A, Q, H, R), shape (n_states, n_meas).
+
+    Observable filters: scipy's discrete Riccati solver, cross-checked against the doubled
+    recursion (GainError if they disagree). The accelerometer-only filter has unobservable
+    altitude and velocity, so its Riccati equation has no stabilising solution (scipy's solver
+    fails on it, with an exception type that depends on the BLAS kernel): its gain is the limit of
+    the plain recursion."""
+    if not is_observable(a, h):
+        return recursion_gain(a, q, h, r)
+    k = kalman_gain(scipy.linalg.solve_discrete_are(a.T, h.T, q, r), h, r)
+    k_check = kalman_gain(doubled_recursion_prior(a, q, h, r), h, r)
+    if not np.allclose(k, k_check, rtol=CROSS_CHECK_RTOL, atol=CROSS_CHECK_RTOL * np.max(np.abs(k))):
+        raise GainError("Riccati solver and recursion disagree: %r vs %r" % (k.tolist(), k_check.tolist()))
+    return k
+
+
+def steady_gain(t_s, h, r, sigma_jerk=SIGMA_JERK):
+    """Converged gain of the three-state white-jerk model at a step of ``t_s`` seconds."""
+    return converged_gain(transition(t_s), white_jerk_q(t_s, sigma_jerk), h, r)
+
+
+def iterated_gain(t_s, h, r, sigma_jerk=SIGMA_JERK):
+    """The same model's gain from the plain recursion (for tests: the reference for steady_gain)."""
+    return recursion_gain(transition(t_s), white_jerk_q(t_s, sigma_jerk), h, r)
 
 
 def bias_gain(t_s, sigma_jerk=SIGMA_JERK_COAST, sigma_bias=SIGMA_BIAS, sigma_accel=SIGMA_ACCEL_COAST_MPS2):
@@ -152,8 +217,7 @@ def bias_gain(t_s, sigma_jerk=SIGMA_JERK_COAST, sigma_bias=SIGMA_BIAS, sigma_acc
     q[3, 3] = sigma_bias**2 * t_s
     h = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 1.0]])
     r = np.diag([SIGMA_ALT_M**2, sigma_accel**2])
-    p_prior = scipy.linalg.solve_discrete_are(a.T, h.T, q, r)
-    return p_prior @ h.T @ np.linalg.inv(h @ p_prior @ h.T + r)
+    return converged_gain(a, q, h, r)
 
 
 def project_gains(rate_hz, sigma_alt_late_m=SIGMA_ALT_M):
@@ -212,6 +276,52 @@ def _row_lines(row):
 
 def decode(mantissa, shift):
     return mantissa / 2.0**shift
+
+
+@functools.lru_cache(maxsize=1)
+def expected_tables():
+    """The rows of each table of shared/gains_table.py, as the current computation gives them
+    (computed once per process: tuples, so the cached value cannot be changed)."""
+    return {
+        "PROJECT": tuple(encode_row(rate, *project_gains(rate)) for rate in RATES_HZ),
+        "PROJECT_LOW_NOISE": tuple(encode_row(rate, *project_gains(rate, SIGMA_ALT_LOW_NOISE_M))
+                                   for rate in RATES_HZ),
+        "SEED": (encode_row(20, *seed_family_gains()),),
+    }
+
+
+def same_gain(m_s, expected_m_s):
+    """True when two (mantissa, shift) encodings agree within one least significant bit.
+
+    The last bit of a gain may differ between BLAS kernels (the floating-point sums run in another
+    order); a carry across a power of two changes the shift, so then the values are compared."""
+    (m, s), (m_exp, s_exp) = m_s, expected_m_s
+    if s == s_exp:
+        return abs(m - m_exp) <= 1
+    return abs(decode(m, s) - decode(m_exp, s_exp)) <= 2.0**-min(s, s_exp)
+
+
+def table_differences(tables, expected=None):
+    """Descriptions of every gain in ``tables`` (name -> rows, as shared/gains_table.py holds them)
+    that differs from the computed one by more than one least significant bit; empty if current."""
+    expected = expected_tables() if expected is None else expected
+    problems = []
+    for name, rows in expected.items():
+        have = tables.get(name)
+        if have is None or [row[0] for row in have] != [row[0] for row in rows]:
+            problems.append("%s: rates %s, expected %s" % (
+                name, None if have is None else [row[0] for row in have], [row[0] for row in rows]))
+            continue
+        for row, row_exp in zip(have, rows, strict=True):
+            if len(row) != len(row_exp):
+                problems.append("%s at %d Hz: %d entries, expected %d" % (
+                    name, row[0], len(row), len(row_exp)))
+                continue
+            for i in range(1, len(row), 2):
+                if not same_gain(row[i:i + 2], row_exp[i:i + 2]):
+                    problems.append("%s at %d Hz, gain %d: %r, expected %r" % (
+                        name, row[0], (i - 1) // 2, tuple(row[i:i + 2]), tuple(row_exp[i:i + 2])))
+    return problems
 
 
 def render():
@@ -278,14 +388,14 @@ def main(argv=None):
             print("project K both at %d Hz:" % rate)
             print(both)
         return 0
-    text = render()
     if args.check:
-        if not OUT.exists() or OUT.read_text() != text:
-            print("%s is stale: run python tools/gen_gains.py" % OUT)
+        problems = table_differences(runpy.run_path(str(OUT))) if OUT.exists() else ["file missing"]
+        if problems:
+            print("%s is stale (run python tools/gen_gains.py): %s" % (OUT, "; ".join(problems)))
             return 1
-        print("%s is current" % OUT)
+        print("%s is current (every gain within one least significant bit)" % OUT)
         return 0
-    OUT.write_text(text)
+    OUT.write_text(render())
     print("wrote", OUT)
     return 0
 
