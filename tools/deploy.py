@@ -263,7 +263,8 @@ def cmd_info(args):
 
 
 def cmd_pull(args):
-    from desktop.io.logdecode import LogDecodeError, read_log, write_csv
+    from desktop.errors import DesktopError
+    from desktop.io.logdecode import read_log, write_csv
 
     out_dir = Path(args.out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -275,7 +276,7 @@ def cmd_pull(args):
     try:
         log = read_log(local)
         csv_path, cfg_path = write_csv(log, local.with_suffix(".csv"))
-    except (LogDecodeError, ValueError) as exc:
+    except (DesktopError, ValueError) as exc:
         raise DeployError(str(exc)) from None
     print("pulled %s: %d records, %d problems" % (local, len(log.records), len(log.problems)))
     for p in log.problems:
@@ -287,7 +288,8 @@ def cmd_pull(args):
 
 def bench_file(csv_path, config_path, out):
     """Convert a flight CSV to bench.bin; returns (desktop replay events, config)."""
-    from desktop.io.flightcsv import FlightCSVError, read_flight_csv
+    from desktop.errors import DesktopError
+    from desktop.io.flightcsv import read_flight_csv
     from desktop.review.replay import config_for, readings, replay
     from device.benchflight import write_bench
     from shared.config import ConfigError
@@ -295,7 +297,7 @@ def bench_file(csv_path, config_path, out):
     try:
         log = read_flight_csv(csv_path)
         config = config_for(log, config_path)
-    except (FlightCSVError, ConfigError) as exc:
+    except (DesktopError, ConfigError) as exc:
         raise DeployError(str(exc)) from None
     if log.metadata_float("ground_pressure_pa") is not None:
         print("# note: the bench flight calibrates on the pad data; ground_pressure_pa metadata is not used")

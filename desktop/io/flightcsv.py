@@ -9,8 +9,10 @@ uninterpreted in `FlightLog.extra`. An empty cell means "no reading in this samp
 Time is converted once to integer microseconds by exact decimal rounding of the text
 (`time_us = round(time_s * 1e6)`, ties to even, no float error: "10.20" -> 10200000).
 
-Every problem with a file is a `FlightCSVError` whose message is one line:
-`<path>:<line>: <problem>` (or `<path>: <problem>` where no line applies).
+Every problem with a file's content is a `FlightCSVError` whose message is one line:
+`<path>:<line>: <problem>` (or `<path>: <problem>` where no line applies); a file that cannot be
+read as UTF-8 text at all (missing, a directory, binary) is an `InputFileError` of the same form
+(desktop/io/files.py).
 """
 
 from __future__ import annotations
@@ -23,6 +25,9 @@ from decimal import ROUND_HALF_EVEN, Decimal, DecimalException
 from pathlib import Path
 
 import numpy as np
+
+from desktop.errors import DesktopError
+from desktop.io.files import decode_text, read_bytes
 
 __all__ = [
     "FlightCSVError",
@@ -60,7 +65,7 @@ _TIME_US_LIMIT = 2**62
 _US_PER_S = Decimal(1000000)
 
 
-class FlightCSVError(ValueError):
+class FlightCSVError(DesktopError):
     """A flight CSV that cannot be read. The message is one line naming file, line and problem."""
 
     def __init__(self, path, line: int | None, problem: str):
@@ -133,21 +138,7 @@ class FlightLog:
 
 
 def _decode(path: str, data: bytes) -> str:
-    if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
-        raise FlightCSVError(path, 1, "UTF-16 text; save the file as UTF-8")
-    nul = data.find(b"\x00")
-    if nul >= 0:
-        line = data.count(b"\n", 0, nul) + 1
-        raise FlightCSVError(path, line, "binary data (NUL byte); not a flight CSV text file")
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as e:
-        line = data.count(b"\n", 0, e.start) + 1
-        raise FlightCSVError(
-            path, line, f"not UTF-8 text (byte 0x{data[e.start]:02x} at offset {e.start})"
-        ) from None
-    if text.startswith("\ufeff"):
-        text = text[1:]
+    text = decode_text(path, data, "flight CSV")
     cr = text.replace("\r\n", "\n\n").find("\r")
     if cr >= 0:
         line = text.count("\n", 0, cr) + 1  # CRLF replaced by 2 chars: offsets are unchanged
@@ -215,14 +206,7 @@ def read_flight_csv(path) -> FlightLog:
     """Read and validate a flight CSV. Raises FlightCSVError (one line, with line number) on any
     problem with the file; never drops a row silently."""
     spath = str(path)
-    try:
-        data = Path(path).read_bytes()
-    except FileNotFoundError:
-        raise FlightCSVError(spath, None, "file not found") from None
-    except IsADirectoryError:
-        raise FlightCSVError(spath, None, "is a directory, not a file") from None
-    except OSError as e:
-        raise FlightCSVError(spath, None, f"cannot read file: {e.strerror or e}") from None
+    data = read_bytes(path, "flight CSV")
     if not data:
         raise FlightCSVError(spath, None, "file is empty (no header line)")
     text = _decode(spath, data)

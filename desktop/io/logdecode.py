@@ -24,12 +24,13 @@ the board's (``differences``; ``python -m desktop replay --check LOG`` stops at 
 
 import json
 import struct
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from desktop.errors import DesktopError
+from desktop.io.files import check_output_file, read_bytes
 from shared import logformat as fl
 from shared.altitude import pressure_to_alt_mm
 from shared.flight import EVENT_NAMES, STATE_NAMES, FlightComputer
@@ -45,7 +46,7 @@ HAVE_ACCEL = 2
 EV_LAUNCH = 1
 
 
-class LogDecodeError(ValueError):
+class LogDecodeError(DesktopError):
     """A log that cannot be decoded; one line naming the file and the problem."""
 
 
@@ -70,11 +71,7 @@ class DecodedLog:
 
 def read_log(path):
     """Parse and check a board log file; raises LogDecodeError for an unreadable file."""
-    p = Path(path)
-    try:
-        data = p.read_bytes()
-    except OSError as exc:
-        raise LogDecodeError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    data = read_bytes(path, "flight log")
     if not data.startswith(fl.FILE_MAGIC):
         raise LogDecodeError(f"{path}: not a flight log (no {fl.FILE_MAGIC!r} magic)")
     off = len(fl.FILE_MAGIC)
@@ -338,12 +335,11 @@ def register(subparsers):
 
 
 def run(args):
-    try:
-        log = read_log(args.file)
-        csv_path, cfg_path = write_csv(log, args.out, args.config_out)
-    except (LogDecodeError, ValueError, OSError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    check_output_file(args.out, "flight CSV")
+    if args.config_out:
+        check_output_file(args.config_out, "configuration file")
+    log = read_log(args.file)
+    csv_path, cfg_path = write_csv(log, args.out, args.config_out)
     report = {
         "file": args.file,
         "blocks": log.blocks,

@@ -36,6 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
+from desktop.errors import DesktopError
+from desktop.io.files import read_text
 from desktop.sim.trajectory import (
     G0,
     Trajectory,
@@ -48,7 +50,7 @@ from desktop.sim.trajectory import (
 __all__ = ["OpenRocketError", "read_openrocket", "write_openrocket_export", "UNITS", "QUANTITIES"]
 
 
-class OpenRocketError(ValueError):
+class OpenRocketError(DesktopError):
     """An OpenRocket export that cannot be imported. The message is one line."""
 
 
@@ -105,16 +107,6 @@ def _split_name(col: str) -> tuple[str, str | None]:
     return m.group(1).strip(), unit
 
 
-def _decode(path: Path, data: bytes) -> str:
-    if b"\x00" in data:
-        raise OpenRocketError(f"{path}: binary data (NUL byte); not an OpenRocket CSV export")
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError:
-        text = data.decode("cp1252", errors="replace")  # OpenRocket on Windows: ANSI code page
-    return text.lstrip("\ufeff")
-
-
 def _number(cell: str) -> float:
     c = cell.strip()
     if c.lower() in ("nan", ""):
@@ -125,15 +117,8 @@ def _number(cell: str) -> float:
 def read_openrocket(path, site_altitude_m: float | None = None, dt_s: float = 0.001) -> Trajectory:
     """Import an OpenRocket CSV export as a Trajectory. Raises OpenRocketError (one line)."""
     p = Path(path)
-    try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise OpenRocketError(f"{p}: file not found") from None
-    except IsADirectoryError:
-        raise OpenRocketError(f"{p}: is a directory, not an OpenRocket export") from None
-    except OSError as e:
-        raise OpenRocketError(f"{p}: cannot read file: {e.strerror or e}") from None
-    text = _decode(p, data)
+    # OpenRocket on Windows writes its exports in the ANSI code page when they are not UTF-8
+    text = read_text(p, "OpenRocket export", fallback_encoding="cp1252")
     lines = text.splitlines()
 
     events: list[tuple[str, float]] = []

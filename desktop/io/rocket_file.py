@@ -14,16 +14,12 @@ from the tail (`[fins] offset_from_tail_m`, `[motor] nozzle_from_tail_m`), as na
 from __future__ import annotations
 
 import math
+import tomllib as _toml
 from dataclasses import dataclass, field
 from pathlib import Path
 
-try:  # Python 3.11+
-    import tomllib as _toml
-except ModuleNotFoundError:  # pragma: no cover - the project's venv is 3.11
-    try:
-        import tomli as _toml  # type: ignore[no-redef]
-    except ModuleNotFoundError:
-        _toml = None
+from desktop.errors import DesktopError
+from desktop.io.files import read_text
 
 __all__ = [
     "RocketFileError",
@@ -38,7 +34,7 @@ __all__ = [
 NOSE_KINDS = ("conical", "ogive", "tangent", "lvhaack", "vonkarman", "elliptical", "parabolic")
 
 
-class RocketFileError(ValueError):
+class RocketFileError(DesktopError):
     """A rocket TOML or .eng file that cannot be used. The message is one line."""
 
 
@@ -223,12 +219,8 @@ def _fmt(x: float) -> str:
 def read_eng(path) -> EngMotor:
     """Read a RASP .eng file. Raises RocketFileError (one line) on any problem."""
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8", errors="replace")
-    except FileNotFoundError:
-        raise RocketFileError(f"{p}: motor file not found") from None
-    except OSError as e:
-        raise RocketFileError(f"{p}: cannot read motor file: {e.strerror or e}") from None
+    # motor files are ASCII in practice; other bytes (comments from Windows tools) are replaced
+    text = read_text(p, "motor file", fallback_encoding="cp1252")
     comments: list[str] = []
     header = None
     points: list[tuple[float, float]] = []
@@ -393,20 +385,9 @@ def _section(path, doc, section) -> dict:
 def load_rocket(path) -> RocketSpec:
     """Load and validate a rocket TOML file (and its motor). Raises RocketFileError (one line)."""
     p = Path(path)
-    if _toml is None:  # pragma: no cover
-        raise RocketFileError("reading TOML needs Python 3.11+ (tomllib) or the 'tomli' package")
+    text = read_text(p, "rocket file")
     try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise RocketFileError(f"{p}: rocket file not found") from None
-    except IsADirectoryError:
-        raise RocketFileError(f"{p}: is a directory, not a rocket file") from None
-    except OSError as e:
-        raise RocketFileError(f"{p}: cannot read rocket file: {e.strerror or e}") from None
-    try:
-        doc = _toml.loads(data.decode("utf-8"))
-    except UnicodeDecodeError:
-        raise RocketFileError(f"{p}: not UTF-8 text") from None
+        doc = _toml.loads(text)
     except _toml.TOMLDecodeError as e:
         raise RocketFileError(f"{p}: TOML syntax error: {str(e).splitlines()[0]}") from None
 

@@ -6,15 +6,15 @@ integer microseconds. Events are reported in the file's own time base.
 """
 
 import json
-import sys
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from desktop.io.flightcsv import FlightCSVError
+from desktop.errors import OutputPathError
+from desktop.io.files import check_output_file, read_text
 from desktop.io.importers import read_flight
 from shared.altitude import pressure_to_alt_mm
-from shared.config import ConfigError, load_config, load_config_file
+from shared.config import ConfigError, load_config
 from shared.detector import HAVE_ACCEL, HAVE_BARO
 from shared.flight import EVENT_NAMES, STATE_NAMES, FlightComputer
 
@@ -126,16 +126,22 @@ def config_for(log, config_path=None, overrides=None):
     and ``baro_noise`` metadata when the configuration does not set them."""
     values = {}
     if config_path:
-        with open(config_path) as f:
-            raw = f.read()
-        load_config_file(config_path)  # validates, with one-line errors
-        values = dict(json.loads(raw))
+        try:
+            values = json.loads(read_text(config_path, "configuration file"))
+        except ValueError as exc:
+            raise ConfigError("config: %s is not valid JSON: %s" % (config_path, exc)) from None
+        if not isinstance(values, dict):
+            raise ConfigError("config: %s: expected a JSON object of settings, got %s" % (
+                config_path, type(values).__name__))
     elif "board_config" in log.metadata:
         try:
             values = json.loads(log.metadata["board_config"])
         except ValueError as exc:
             raise ConfigError("%s: metadata board_config is not valid JSON: %s" % (log.path, exc)) from None
-    values.update(overrides or {})
+        if not isinstance(values, dict):
+            raise ConfigError("%s: metadata board_config is not a JSON object of settings (got %s)" % (
+                log.path, type(values).__name__))
+    values = dict(values, **(overrides or {}))
     for key in ("accel_range_g", "baro_lag_ms"):
         if key not in values and log.metadata_float(key) is not None:
             values[key] = log.metadata_float(key)
@@ -174,15 +180,15 @@ def run(args):
         from desktop.review.logcheck import run_check
 
         return run_check(args.file, args.config)
-    try:
-        log = read_flight(args.file)
-        overrides = {}
-        if args.main_altitude is not None:
-            overrides["main_deploy_m"] = args.main_altitude
-        config = config_for(log, args.config, overrides)
-    except (FlightCSVError, ConfigError) as exc:
-        print("error: %s" % exc, file=sys.stderr)
-        return 2
+    if args.plot:
+        check_output_file(args.plot, "plot")
+    if args.report:
+        check_output_file(args.report, "report")
+    log = read_flight(args.file)
+    overrides = {}
+    if args.main_altitude is not None:
+        overrides["main_deploy_m"] = args.main_altitude
+    config = config_for(log, args.config, overrides)
     result = replay(log, config)
     if args.plot:
         from desktop.review.plot import plot_replay
@@ -194,8 +200,7 @@ def run(args):
         try:
             write_report(result, log, config, args.report, args.units)
         except OSError as exc:
-            print(f"error: {args.report}: cannot write the report: {exc.strerror or exc}", file=sys.stderr)
-            return 2
+            raise OutputPathError(f"{args.report}: cannot write the report: {exc.strerror or exc}") from None
     if args.json:
         print(json.dumps({
             "file": args.file,

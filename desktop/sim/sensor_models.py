@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.signal import lfilter
 
+from desktop.errors import DesktopError
 from desktop.sim.trajectory import G0, GAMMA, Trajectory, isa_altitude
 
 __all__ = [
@@ -51,7 +52,7 @@ __all__ = [
 ]
 
 
-class SensorProfileError(ValueError):
+class SensorProfileError(DesktopError):
     """An unknown sensor profile name (one-line message listing the known ones)."""
 
 

@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 import time
+
+from desktop.errors import UsageError
+from desktop.io.files import check_output_file
 
 DEFAULT_PROFILE = "bmp390+lsm6dso"
 
@@ -73,55 +75,33 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-class _UsageError(Exception):
-    pass
-
-
-def _fail(msg: str) -> int:
-    print(f"simulate: error: {msg}", file=sys.stderr)
-    return 2
-
-
 def run(args) -> int:
-    from desktop.io.flightcsv import FlightCSVError
-    from desktop.io.openrocket import OpenRocketError
-    from desktop.io.rocket_file import RocketFileError
-    from desktop.sim.sensor_models import SensorProfileError
-    from desktop.sim.trajectory import TrajectoryError
-
-    try:
-        return _run(args)
-    except (_UsageError, RocketFileError, OpenRocketError, SensorProfileError, TrajectoryError,
-            FlightCSVError, ValueError) as e:
-        return _fail(str(e).splitlines()[0] if str(e) else type(e).__name__)
-    except OSError as e:
-        return _fail(f"{getattr(e, 'filename', '') or ''}: {e.strerror or e}".lstrip(": "))
-
-
-def _run(args) -> int:
-    from desktop.sim.sensor_models import BoardConfig, parse_profile
-
     if args.list_sensors:
         _list_sensors()
         return 0
     if args.benchmark is not None:
         if not args.rocket or args.openrocket:
-            raise _UsageError("--benchmark needs a ROCKET.toml")
+            raise UsageError("--benchmark needs a ROCKET.toml")
         if args.benchmark < 1 or args.jobs < 1:
-            raise _UsageError("--benchmark and --jobs need positive counts")
+            raise UsageError("--benchmark and --jobs need positive counts")
         return _benchmark(args)
     if bool(args.rocket) == bool(args.openrocket):
-        raise _UsageError("give either ROCKET.toml or --openrocket EXPORT.csv (one of them)")
+        raise UsageError("give either ROCKET.toml or --openrocket EXPORT.csv (one of them)")
     if not args.out:
-        raise _UsageError("--out FLIGHT.csv is required")
+        raise UsageError("--out FLIGHT.csv is required")
     if args.rocket and args.site_altitude is not None:
-        raise _UsageError(
+        raise UsageError(
             "--site-altitude applies to --openrocket exports; a rocket file has [site] elevation_m"
         )
     if args.site_altitude is not None and not -500.0 <= args.site_altitude <= 5000.0:
-        raise _UsageError(f"--site-altitude {args.site_altitude:g} is out of range (allowed -500 to 5000 m)")
+        raise UsageError(f"--site-altitude {args.site_altitude:g} is out of range (allowed -500 to 5000 m)")
     if args.after_main_s is not None and args.after_main_s < 0:
-        raise _UsageError("--after-main-s must be >= 0")
+        raise UsageError("--after-main-s must be >= 0")
+    check_output_file(args.out, "flight CSV")
+    if args.plot:
+        check_output_file(args.plot, "plot")
+
+    from desktop.sim.sensor_models import BoardConfig, parse_profile  # scipy: seconds to import
 
     board_defaults: dict = {}
     if args.rocket:
@@ -159,8 +139,8 @@ def _board(args, defaults, BoardConfig):
     board = BoardConfig(rate_hz=rate, pad_s=pad)
     try:
         board.validate()
-    except ValueError as e:
-        raise _UsageError(str(e)) from None
+    except ValueError as e:  # BoardConfig's own range check: here it is an option out of range
+        raise UsageError(str(e)) from None
     return board
 
 

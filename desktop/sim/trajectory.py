@@ -31,6 +31,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from desktop.errors import DesktopError
 from desktop.io.rocket_file import EngMotor, RocketSpec
 from shared.physics import G0_MPS2 as G0
 
@@ -57,7 +58,7 @@ _LAYERS = ((0.0, 288.15, -0.0065, 101325.0), (11000.0, 216.65, 0.0, 22632.0431),
                                                                                      5474.8786))
 
 
-class TrajectoryError(ValueError):
+class TrajectoryError(DesktopError):
     """A rocket that RocketPy cannot fly sensibly (unstable, does not leave the rail, ...)."""
 
 

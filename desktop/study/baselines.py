@@ -45,7 +45,9 @@ detection times in s, NaN when none), the interface of ``desktop.study.detect.ME
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
+
+# scipy.signal is imported in the functions that use it: it takes seconds to import, and
+# ``python -m desktop --help`` imports this module.
 
 from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
 
@@ -80,6 +82,8 @@ def sample_period_s(time_s) -> float:
 def _lfilter_from_first(b, a, x: np.ndarray) -> np.ndarray:
     """Causal ``lfilter`` along samples, started in steady state on each flight's first sample
     (so that a non-zero ground level does not ring the filter)."""
+    from scipy import signal
+
     x = _2d(x)
     zi = signal.lfilter_zi(b, a)[None, :] * x[:, :1]
     y, _ = signal.lfilter(b, a, x, axis=1, zi=zi)
@@ -96,11 +100,15 @@ def boxcar(x, window: int = BOXCAR_WINDOW) -> np.ndarray:
 
 
 def butter_coefficients(fs_hz: float, order: int = BUTTER_ORDER, cutoff_hz: float = BUTTER_CUTOFF_HZ):
+    from scipy import signal
+
     return signal.butter(order, cutoff_hz, btype="low", fs=fs_hz)
 
 
 def ellip_coefficients(fs_hz: float, order: int = ELLIP_ORDER, rp_db: float = ELLIP_RP_DB,
                        rs_db: float = ELLIP_RS_DB, cutoff_hz: float = ELLIP_CUTOFF_HZ):
+    from scipy import signal
+
     return signal.ellip(order, rp_db, rs_db, cutoff_hz, btype="low", fs=fs_hz)
 
 

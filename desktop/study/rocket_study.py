@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from desktop.errors import UsageError
 from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
 from desktop.study import baselines
 from desktop.study.metrics import METRIC_KEYS, format_cell, metrics, table_lines
@@ -67,6 +68,7 @@ class Dispersions:
 
 
 DEFAULT_DISPERSIONS = Dispersions()
+MAX_WIND_LIMIT_MPS = 30.0  # --max-wind-mps above this is outside what a launch would fly in
 
 
 @dataclass(frozen=True)
@@ -721,34 +723,24 @@ def export_flight_csv(settings: StudySettings, index: int, path) -> dict:
 
 
 def main(args) -> int:
-    from desktop.io.rocket_file import RocketFileError
-    from desktop.sim.sensor_models import SensorProfileError
-    from desktop.sim.trajectory import TrajectoryError
-
     if args.params != "montecarlo":
-        print("montecarlo: error: --params applies to the seed study, not to --rocket", file=sys.stderr)
-        return 2
+        raise UsageError("--params applies to the seed study, not to --rocket")
     if args.workers is not None and args.workers < 1:
-        print("montecarlo: error: --workers must be >= 1", file=sys.stderr)
-        return 2
-    try:
-        disp = dataclasses.replace(DEFAULT_DISPERSIONS, max_wind_mps=args.max_wind_mps) \
-            if args.max_wind_mps is not None else DEFAULT_DISPERSIONS
-        if disp.max_wind_mps < 0 or disp.max_wind_mps > 30:
-            raise ValueError("--max-wind-mps must be 0 to 30 m/s")
-        settings = settings_for(args.rocket, args.seed, profile=args.sensors, pad_s=args.pad_s,
-                                dispersions=disp)
-        if args.export_csv:
-            info = export_flight_csv(settings, args.flight, args.export_csv)
-            print(f"wrote {args.export_csv}: flight {args.flight} of seed {args.seed}, true apogee "
-                  f"{info['true_apogee_m']:.1f} m at {info['true_apogee_s']:.3f} s",
-                  file=sys.stderr if args.json else sys.stdout)
-            return 0
-        progress = (not args.json) and sys.stderr.isatty()
-        result = run_rocket_study(settings, args.flights, workers=args.workers, progress=progress)
-    except (RocketFileError, SensorProfileError, TrajectoryError, ValueError) as e:
-        print(f"montecarlo: error: {str(e).splitlines()[0]}", file=sys.stderr)
-        return 2
+        raise UsageError("--workers must be >= 1")
+    if args.max_wind_mps is not None and not 0 <= args.max_wind_mps <= MAX_WIND_LIMIT_MPS:
+        raise UsageError(f"--max-wind-mps must be 0 to {MAX_WIND_LIMIT_MPS:g} m/s")
+    disp = dataclasses.replace(DEFAULT_DISPERSIONS, max_wind_mps=args.max_wind_mps) \
+        if args.max_wind_mps is not None else DEFAULT_DISPERSIONS
+    settings = settings_for(args.rocket, args.seed, profile=args.sensors, pad_s=args.pad_s,
+                            dispersions=disp)
+    if args.export_csv:
+        info = export_flight_csv(settings, args.flight, args.export_csv)
+        print(f"wrote {args.export_csv}: flight {args.flight} of seed {args.seed}, true apogee "
+              f"{info['true_apogee_m']:.1f} m at {info['true_apogee_s']:.3f} s",
+              file=sys.stderr if args.json else sys.stdout)
+        return 0
+    progress = (not args.json) and sys.stderr.isatty()
+    result = run_rocket_study(settings, args.flights, workers=args.workers, progress=progress)
     if args.json:
         print(json.dumps(result.to_json(), indent=1))
     else:

@@ -38,12 +38,15 @@ from dataclasses import asdict
 
 import numpy as np
 
+from desktop.errors import UsageError
+from desktop.io.files import check_output_file, make_output_dir
 from desktop.sim import seed_model as sm
 from desktop.study import baselines
 from desktop.study.metrics import metrics, table_lines
 from desktop.study.seed_plots import write_plots
 
 DEFAULT_PAD_S = {"montecarlo": 2.0, "seed": 0.0}
+PAD_S_RANGE = (0.0, 600.0)  # s; the simulated board's range (desktop.sim.sensor_models.BoardConfig)
 CHUNK_FLIGHTS = 2000
 
 
@@ -234,15 +237,30 @@ def register(subparsers):
     return p
 
 
+def check_common_options(args) -> None:
+    """UsageError for an option out of range, before any computation (both studies)."""
+    if args.flights < 1:
+        raise UsageError(f"--flights {args.flights} must be >= 1")
+    if args.flight < 0:
+        raise UsageError(f"--flight {args.flight} must be >= 0")
+    if args.pad_s is not None and not PAD_S_RANGE[0] <= args.pad_s <= PAD_S_RANGE[1]:
+        raise UsageError(f"--pad-s {args.pad_s:g} is out of range (allowed {PAD_S_RANGE[0]:g} to "
+                         f"{PAD_S_RANGE[1]:g} s)")
+    if args.export_csv:
+        check_output_file(args.export_csv, "flight CSV")
+    if args.plots:
+        make_output_dir(args.plots, "plots folder")
+
+
 def main(args) -> int:
+    check_common_options(args)
     if getattr(args, "rocket", None):
         from desktop.study import rocket_study as rocket_montecarlo
 
         return rocket_montecarlo.main(args)
     for flag in ("workers", "sensors", "max_wind_mps"):
         if getattr(args, flag, None) is not None:
-            print(f"montecarlo: error: --{flag.replace('_', '-')} needs --rocket", file=sys.stderr)
-            return 2
+            raise UsageError(f"--{flag.replace('_', '-')} needs --rocket")
     pad_s = DEFAULT_PAD_S[args.params] if args.pad_s is None else args.pad_s
     if args.export_csv:
         batch = export_csv(args.export_csv, args.params, args.seed, args.flight, pad_s)

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from desktop.errors import DesktopError, InputFileError
 from desktop.io.flightcsv import FlightCSVError, FlightLog, read_flight_csv, write_flight_csv
 
 ALTOS_DIR = Path(__file__).parents[1] / "data" / "flights" / "altos"
@@ -207,7 +208,8 @@ BAD_FILES = [
 @pytest.mark.parametrize("content, line, text", [c[1:] for c in BAD_FILES], ids=[c[0] for c in BAD_FILES])
 def test_bad_file_errors(tmp_path, content, line, text):
     p = _write(tmp_path, content)
-    with pytest.raises(FlightCSVError) as info:
+    # content problems are FlightCSVError; text that is not UTF-8 at all is InputFileError
+    with pytest.raises((FlightCSVError, InputFileError)) as info:
         read_flight_csv(p)
     msg = str(info.value)
     assert "\n" not in msg and "\r" not in msg
@@ -215,7 +217,7 @@ def test_bad_file_errors(tmp_path, content, line, text):
     assert msg.startswith(prefix), msg
     assert text in msg, msg
     assert info.value.line == line and info.value.path == str(p)
-    assert isinstance(info.value, ValueError)
+    assert isinstance(info.value, DesktopError)
 
 
 def test_error_message_exact_form(tmp_path):
@@ -227,20 +229,21 @@ def test_error_message_exact_form(tmp_path):
 
 
 def test_missing_file_and_directory(tmp_path):
-    with pytest.raises(FlightCSVError, match=r"nope\.csv: file not found$"):
+    with pytest.raises(InputFileError, match=r"nope\.csv: flight CSV not found$"):
         read_flight_csv(tmp_path / "nope.csv")
-    with pytest.raises(FlightCSVError, match="is a directory"):
+    with pytest.raises(InputFileError, match="is a directory, not a flight CSV"):
         read_flight_csv(tmp_path)
 
 
 def test_path_through_a_file(tmp_path):
     p = _write(tmp_path, H + "0,1,1\n")
-    with pytest.raises(FlightCSVError, match=r"flight\.csv/x\.csv: cannot read file: Not a directory$"):
+    with pytest.raises(InputFileError, match=r"flight\.csv/x\.csv: cannot read flight CSV: Not a directory$"):
         read_flight_csv(p / "x.csv")
 
 
 def test_mangled_files_never_raise_anything_else(tmp_path):
-    """Random byte damage to a valid file: either it still reads, or a one-line FlightCSVError."""
+    """Random byte damage to a valid file: it still reads, or fails with one line (FlightCSVError or
+    InputFileError)."""
     good = (ALTOS_DIR / "2012-05-28-serial-319-flight-005.csv").read_bytes()[:3000]
     good = good[: good.rindex(b"\n") + 1]
     rng = np.random.default_rng(3)
@@ -262,7 +265,7 @@ def test_mangled_files_never_raise_anything_else(tmp_path):
         try:
             read_flight_csv(p)
             outcomes["ok"] += 1
-        except FlightCSVError as e:
+        except (FlightCSVError, InputFileError) as e:
             assert "\n" not in str(e) and "\r" not in str(e) and str(e).startswith(f"{p}:")
             outcomes["error"] += 1
     assert outcomes["ok"] > 10 and outcomes["error"] > 100
@@ -278,7 +281,7 @@ def test_unreadable_file(tmp_path):
             pass
         else:
             pytest.skip("running with privileges that ignore file permissions")
-        with pytest.raises(FlightCSVError, match="cannot read file"):
+        with pytest.raises(InputFileError, match="cannot read flight CSV: Permission denied"):
             read_flight_csv(p)
     finally:
         p.chmod(0o644)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from desktop.cli import main as run_cli
+from desktop.errors import InputFileError
 from desktop.io.flightcsv import read_flight_csv
 from desktop.io.openrocket import OpenRocketError, read_openrocket, write_openrocket_export
 from desktop.io.rocket_file import load_rocket
@@ -241,13 +242,13 @@ def test_malformed_export_gives_one_line_error_naming_file(tmp_path, content, fr
 
 
 def test_file_errors(tmp_path):
-    with pytest.raises(OpenRocketError, match="file not found"):
+    with pytest.raises(InputFileError, match="OpenRocket export not found"):
         read_openrocket(tmp_path / "none.csv")
-    with pytest.raises(OpenRocketError, match="is a directory"):
+    with pytest.raises(InputFileError, match="is a directory"):
         read_openrocket(tmp_path)
     b = tmp_path / "b.csv"
     b.write_bytes(b"\x00\x01\x02")
-    with pytest.raises(OpenRocketError, match="binary data"):
+    with pytest.raises(InputFileError, match="binary data"):
         read_openrocket(b)
 
 
@@ -272,7 +273,7 @@ def test_simulate_openrocket(tmp_path, capsys):
 
 @pytest.mark.parametrize("argv,fragment", [
     (["--openrocket", "{bad}", "--out", "x.csv"], "unknown unit 'furlong'"),
-    (["--openrocket", "{missing}", "--out", "x.csv"], "file not found"),
+    (["--openrocket", "{missing}", "--out", "x.csv"], "OpenRocket export not found"),
     (["--openrocket", "{sample}", "--out", "x.csv", "--sensors", "nope"], "unknown sensor profile 'nope'"),
     (["--openrocket", "{sample}", "--out", "x.csv", "--site-altitude", "9000"], "allowed -500 to 5000 m"),
 ])

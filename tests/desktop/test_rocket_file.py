@@ -4,6 +4,7 @@ from pathlib import Path
 
 import pytest
 
+from desktop.errors import InputFileError
 from desktop.io.rocket_file import SCHEMA, RocketFileError, load_rocket, read_eng
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -169,21 +170,21 @@ def test_board_section(tmp_path):
 
 
 def test_file_errors(tmp_path):
-    with pytest.raises(RocketFileError, match="rocket file not found"):
+    with pytest.raises(InputFileError, match="rocket file not found"):
         load_rocket(tmp_path / "nope.toml")
-    with pytest.raises(RocketFileError, match="is a directory"):
+    with pytest.raises(InputFileError, match="is a directory"):
         load_rocket(tmp_path)
     bad = tmp_path / "bad.toml"
     bad.write_text("name = \n", encoding="utf-8")
     with pytest.raises(RocketFileError, match="TOML syntax error"):
         load_rocket(bad)
     bad.write_bytes(b"name = \"\xff\"\n")
-    with pytest.raises(RocketFileError, match="not UTF-8"):
+    with pytest.raises(InputFileError, match="not UTF-8"):
         load_rocket(bad)
     text = BASE.replace("{motor}", str(tmp_path / "missing.eng"))
     p = tmp_path / "m.toml"
     p.write_text(text, encoding="utf-8")
-    with pytest.raises(RocketFileError, match="motor file not found"):
+    with pytest.raises(InputFileError, match="motor file not found"):
         load_rocket(p)
 
 
@@ -193,7 +194,7 @@ def test_motor_path_is_relative_to_the_toml(tmp_path):
     assert load_rocket(p).motor.designation == "J360SM"
     q = tmp_path / "rel.toml"
     q.write_text(text, encoding="utf-8")
-    with pytest.raises(RocketFileError, match="motor file not found"):
+    with pytest.raises(InputFileError, match="motor file not found"):
         load_rocket(q)
 
 

@@ -282,7 +282,7 @@ def test_simulate_errors_are_one_line(tmp_path, capsys, argv, fragment):
     rc = run_cli(["simulate", *argv])
     err = capsys.readouterr().err
     assert rc == 2
-    assert err.count("\n") == 1 and err.startswith("simulate: error: ")
+    assert err.count("\n") == 1 and err.startswith("error: ")
     assert fragment in err
     assert not (tmp_path / "x.csv").exists()
 

@@ -11,6 +11,7 @@ import struct
 import numpy as np
 import pytest
 
+from desktop.errors import InputFileError
 from desktop.io.logdecode import LogDecodeError, board_config, check_log, read_log, write_csv
 from device import flightlog as fl
 from device.status import digits_pattern
@@ -102,7 +103,7 @@ def test_not_a_log(tmp_path):
     (tmp_path / "x.log").write_bytes(b"hello")
     with pytest.raises(LogDecodeError, match="not a flight log"):
         read_log(tmp_path / "x.log")
-    with pytest.raises(LogDecodeError, match="cannot read"):
+    with pytest.raises(InputFileError, match="flight log not found"):
         read_log(tmp_path / "missing.log")
 
 
