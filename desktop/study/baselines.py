@@ -46,10 +46,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
+
 # scipy.signal is imported in the functions that use it: it takes seconds to import, and
 # ``python -m desktop --help`` imports this module.
-
-from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
 
 LAUNCH_THRESHOLD_MPS2 = 30.0
 LOCKOUT_S = 1.0
