@@ -24,8 +24,8 @@ if str(ROOT) not in sys.path:
 from tools import dev  # noqa: E402
 
 PYTHON_FLOOR = "%d.%d" % dev.MIN_PYTHON
-COMPILE_ARGS = ("pip", "compile", "pyproject.toml", "--extra", "dev", "--generate-hashes", "--universal",
-                "--fork-strategy", "fewest", "--python-version", PYTHON_FLOOR,
+COMPILE_ARGS = ("pip", "compile", "--quiet", "pyproject.toml", "--extra", "dev", "--generate-hashes",
+                "--universal", "--fork-strategy", "fewest", "--python-version", PYTHON_FLOOR,
                 "--custom-compile-command", "python3 tools/lock.py", "-o", "requirements.lock")
 
 
@@ -44,7 +44,10 @@ def main(argv):
     python = str(dev.venv_python())
     ensure_uv(python)
     cmd = [python, "-m", "uv", *COMPILE_ARGS] + (["--upgrade"] if args.upgrade else [])
-    return subprocess.run(cmd, cwd=str(ROOT)).returncode
+    status = subprocess.run(cmd, cwd=str(ROOT)).returncode
+    if status == 0:
+        print("wrote requirements.lock (git diff shows what moved); next: python3 tools/dev.py test")
+    return status
 
 
 if __name__ == "__main__":
