@@ -70,7 +70,8 @@ class DecodedLog:
 
 
 def read_log(path):
-    """Parse and check a board log file; raises LogDecodeError for an unreadable file."""
+    """Parse and check a board log file; InputFileError if it cannot be read, LogDecodeError if it
+    is not a flight log."""
     data = read_bytes(path, "flight log")
     if not data.startswith(fl.FILE_MAGIC):
         raise LogDecodeError(f"{path}: not a flight log (no {fl.FILE_MAGIC!r} magic)")
