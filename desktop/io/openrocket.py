@@ -25,7 +25,8 @@ known unit; other columns are ignored. Missing quantities are derived and listed
 
 The result is the same `Trajectory` as desktop/sim/trajectory.py produces, resampled to a uniform fine
 grid (altitude by cubic Hermite with the vertical velocity, the rest linearly), keeping the
-export's time base. Every problem is one `OpenRocketError` with a one-line message.
+export's time base. Every problem with the content is one `OpenRocketError` with a one-line
+message (a file that cannot be read: `InputFileError`, desktop/io/files.py).
 """
 
 from __future__ import annotations
@@ -115,7 +116,7 @@ def _number(cell: str) -> float:
 
 
 def read_openrocket(path, site_altitude_m: float | None = None, dt_s: float = 0.001) -> Trajectory:
-    """Import an OpenRocket CSV export as a Trajectory. Raises OpenRocketError (one line)."""
+    """Import an OpenRocket CSV export as a Trajectory; OpenRocketError or InputFileError (one line)."""
     p = Path(path)
     # OpenRocket on Windows writes its exports in the ANSI code page when they are not UTF-8
     text = read_text(p, "OpenRocket export", fallback_encoding="cp1252")

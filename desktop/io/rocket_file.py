@@ -2,7 +2,8 @@
 
 A rocket file is a small TOML document (see examples/rockets/ and docs/SIMULATION.md). Every key is
 checked here, in one table (`SCHEMA`): its type, its unit (in its name) and its allowed range.
-Unknown keys are rejected. Any problem is one `RocketFileError` whose message is one line naming the
+Unknown keys are rejected. Any problem with the content is one `RocketFileError` (a file that cannot
+be read: `InputFileError`, desktop/io/files.py) whose message is one line naming the
 file, the key and the allowed range, e.g.
 
     examples/rockets/x.toml: [body] dry_mass_kg = -1 is out of range (allowed 0.005 to 500 kg)
@@ -217,7 +218,7 @@ def _fmt(x: float) -> str:
 
 
 def read_eng(path) -> EngMotor:
-    """Read a RASP .eng file. Raises RocketFileError (one line) on any problem."""
+    """Read a RASP .eng file. Raises RocketFileError or InputFileError (one line)."""
     p = Path(path)
     # motor files are ASCII in practice; other bytes (comments from Windows tools) are replaced
     text = read_text(p, "motor file", fallback_encoding="cp1252")
@@ -383,7 +384,8 @@ def _section(path, doc, section) -> dict:
 
 
 def load_rocket(path) -> RocketSpec:
-    """Load and validate a rocket TOML file (and its motor). Raises RocketFileError (one line)."""
+    """Load and validate a rocket TOML file (and its motor). Raises RocketFileError or
+    InputFileError (one line)."""
     p = Path(path)
     text = read_text(p, "rocket file")
     try:
