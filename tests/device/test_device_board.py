@@ -205,7 +205,7 @@ def test_dry_run_prints_the_commands():
     (["fire", "drogue", "50", "--confirm", "main"], "repeat the channel name"),
     (["arm", "--confirm", "yes"], "repeat with --confirm arm"),
     (["frobnicate"], "invalid choice"),
-    (["bench", "{missing}"], "file not found"),
+    (["bench", "{missing}"], "flight CSV not found"),
 ])
 def test_errors_are_one_line_exit_2(tmp_path, args, message):
     cfg = tmp_path / "cfg.json"
