@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from desktop.io.files import read_text
 from desktop.io.flightcsv import FlightCSVError
 from shared.physics import G0_MPS2
 
@@ -113,14 +114,7 @@ def read_altos_csv(path):
     """Read an AltosUI CSV export. Returns (columns, metadata, comments) for ``write_flight_csv``;
     raises FlightCSVError (one line) on anything it cannot read."""
     spath = str(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise FlightCSVError(spath, None, "file not found") from None
-    except UnicodeDecodeError:
-        raise FlightCSVError(spath, None, "not UTF-8 text (an AltosUI CSV export is plain text)") from None
-    except OSError as exc:
-        raise FlightCSVError(spath, None, f"cannot read file: {exc.strerror or exc}") from None
+    text = read_text(path, "AltosUI CSV export")
     lines = text.splitlines()
     comments = {}
     header_at = None

@@ -76,7 +76,7 @@ def make_output_dir(path, what="folder"):
     try:
         p.mkdir(parents=True, exist_ok=True)
     except FileExistsError:
-        raise OutputPathError("%s: cannot create the %s: a file is in the way" % (p, what)) from None
+        raise OutputPathError("%s: cannot create the %s: it is a file, not a folder" % (p, what)) from None
     except OSError as exc:
         raise OutputPathError("%s: cannot create the %s: %s" % (p, what, exc.strerror or exc)) from None
     if not os.access(p, os.W_OK):

@@ -7,11 +7,12 @@ writer and reads them back with its reader, so an imported flight passes the sam
 a file written by ``import``.
 """
 
-import sys
 import tempfile
 from pathlib import Path
 
+from desktop.errors import InputFileError
 from desktop.io import altos_csv
+from desktop.io.files import check_output_file, read_bytes
 from desktop.io.flightcsv import FlightCSVError, read_flight_csv, write_flight_csv
 
 FORMATS = ("flight-csv", "altos")
@@ -19,15 +20,8 @@ _SNIFF_LINES = 200
 
 
 def _first_lines(path):
-    try:
-        with open(path, encoding="utf-8-sig", errors="replace") as f:
-            return [f.readline() for _ in range(_SNIFF_LINES)]
-    except FileNotFoundError:
-        raise FlightCSVError(str(path), None, "file not found") from None
-    except IsADirectoryError:
-        raise FlightCSVError(str(path), None, "is a directory, not a file") from None
-    except OSError as exc:
-        raise FlightCSVError(str(path), None, f"cannot read file: {exc.strerror or exc}") from None
+    # leniently decoded: only to recognise a signature; the format's reader checks the text
+    return read_bytes(path, "flight file").decode("utf-8-sig", errors="replace").splitlines()[:_SNIFF_LINES]
 
 
 def detect_format(path):
@@ -75,21 +69,18 @@ def register(subparsers):
 
 
 def run(args):
-    try:
-        fmt = args.format or detect_format(args.file)
-        if fmt == "flight-csv":
-            try:
-                read_flight_csv(args.file)
-            except FlightCSVError as exc:
-                raise FlightCSVError(args.file, None, "unknown format: not an export docs/IMPORT.md lists, "
-                                     f"nor a flight CSV ({exc.problem})") from None
-            raise FlightCSVError(args.file, None, "already a flight CSV; nothing to import")
-        columns, metadata, comments = convert(args.file, fmt)
-        write_flight_csv(args.out, columns, metadata=metadata, comments=comments)
-        log = read_flight_csv(args.out)
-    except (FlightCSVError, OSError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    check_output_file(args.out, "flight CSV")
+    fmt = args.format or detect_format(args.file)
+    if fmt == "flight-csv":
+        try:
+            read_flight_csv(args.file)
+        except (FlightCSVError, InputFileError) as exc:
+            raise FlightCSVError(args.file, None, "unknown format: not an export docs/IMPORT.md lists, "
+                                 f"nor a flight CSV ({exc.problem})") from None
+        raise FlightCSVError(args.file, None, "already a flight CSV; nothing to import")
+    columns, metadata, comments = convert(args.file, fmt)
+    write_flight_csv(args.out, columns, metadata=metadata, comments=comments)
+    log = read_flight_csv(args.out)
     states = log.extra.get("altos_state")
     seen = []
     if states is not None:

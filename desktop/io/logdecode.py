@@ -286,9 +286,10 @@ def differences(inputs, board, config, ground_alt_mm=None):
 
 def board_config(log, config_path=None):
     """The configuration the board flew (the log header's), or the JSON file ``config_path``."""
-    from shared.config import load_config, load_config_file
+    from desktop.io.config_file import config_file_values
+    from shared.config import load_config
 
-    return load_config_file(config_path) if config_path else load_config(log.config)
+    return load_config(config_file_values(config_path) if config_path else log.config)
 
 
 def log_differences(log, config):

@@ -11,7 +11,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from desktop.errors import OutputPathError
-from desktop.io.files import check_output_file, read_text
+from desktop.io.config_file import config_file_values
+from desktop.io.files import check_output_file
 from desktop.io.importers import read_flight
 from shared.altitude import pressure_to_alt_mm
 from shared.config import ConfigError, load_config
@@ -126,13 +127,7 @@ def config_for(log, config_path=None, overrides=None):
     and ``baro_noise`` metadata when the configuration does not set them."""
     values = {}
     if config_path:
-        try:
-            values = json.loads(read_text(config_path, "configuration file"))
-        except ValueError as exc:
-            raise ConfigError("config: %s is not valid JSON: %s" % (config_path, exc)) from None
-        if not isinstance(values, dict):
-            raise ConfigError("config: %s: expected a JSON object of settings, got %s" % (
-                config_path, type(values).__name__))
+        values = config_file_values(config_path)
     elif "board_config" in log.metadata:
         try:
             values = json.loads(log.metadata["board_config"])

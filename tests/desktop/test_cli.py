@@ -121,7 +121,7 @@ def test_montecarlo_export_csv_under_a_file(a_file, capsys):
 
 def test_montecarlo_plots_onto_a_file(a_file, capsys):
     line = one_error_line(["montecarlo", "--flights", "2", "--plots", str(a_file)], capsys)
-    assert line == "error: %s: cannot create the plots folder: a file is in the way" % a_file
+    assert line == "error: %s: cannot create the plots folder: it is a file, not a folder" % a_file
 
 
 def test_montecarlo_plots_under_a_file(a_file, capsys):

@@ -10,16 +10,17 @@ powers up, the arming switch closes after 1 s, it runs its pad checks and flies,
 
 import json
 import sys
-from pathlib import Path
 
 import numpy as np
 
+from desktop.errors import DesktopError
 from desktop.hosts.micropython import MicroPythonError
 from desktop.hosts.sil.flightgen import Recording, Scenario
 from desktop.hosts.sil.host import DROGUE_PIN, MAIN_PIN, rises, run_sil
+from desktop.io.files import make_output_dir
 
 
-class SilInputError(ValueError):
+class SilInputError(DesktopError):
     """A flight or configuration the software-in-the-loop run cannot use (one line)."""
 
 
@@ -61,34 +62,27 @@ def register(subparsers):
 
 
 def _config(path):
+    """The configuration file's settings, validated (one-line errors), or {} without a file."""
     if path is None:
         return {}
-    from shared.config import ConfigError, load_config_file
+    from desktop.io.config_file import config_file_values
+    from shared.config import load_config
 
-    try:
-        load_config_file(path)  # one-line errors
-    except ConfigError as exc:
-        raise SilInputError(str(exc)) from None
-    return json.loads(Path(path).read_text())
+    values = config_file_values(path)
+    load_config(values)
+    return values
 
 
 def run(args):
-    from desktop.io.flightcsv import FlightCSVError
-
+    out = make_output_dir(args.out, "output folder")
+    config = _config(args.config)
+    if args.flight:
+        source = recording_from(args.flight)
+    else:
+        source = Scenario(seed=args.seed, boost_mps2=args.boost, burn_s=args.burn,
+                          descent_mps=args.descent)
     try:
-        config = _config(args.config)
-        if args.flight:
-            source = recording_from(args.flight)
-        else:
-            source = Scenario(seed=args.seed, boost_mps2=args.boost, burn_s=args.burn,
-                              descent_mps=args.descent)
-        out = Path(args.out)
-        if out.exists() and not out.is_dir():
-            raise SilInputError(f"{out}: exists and is not a folder")
         result = run_sil(out, source, config=config)
-    except (SilInputError, FlightCSVError, OSError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
     except MicroPythonError as exc:
         print("error: " + str(exc).splitlines()[0], file=sys.stderr)
         return 2
