@@ -4,6 +4,7 @@ Usage (from the repository root, with Python >= 3.11 and git; nothing else):
 
     python3 tools/dev.py run     # set up .venv, run the 200-flight seed study, write plots to out/
     python3 tools/dev.py test    # set up .venv, run every test (MicroPython interpreters included)
+    python3 tools/dev.py fast    # the fast lane while developing: pytest -m "not slow" (under a minute)
 
 The environment gets the exact versions in requirements.lock (with their hashes, by plain pip),
 then the project itself (editable, without dependencies). It is reinstalled only when
@@ -65,13 +66,16 @@ def main(argv):
         print("error: this project needs Python >= %d.%d (this is %d.%d: %s); run tools/dev.py with a newer "
               "python3" % (*MIN_PYTHON, *sys.version_info[:2], sys.executable), file=sys.stderr)
         return 2
-    if len(argv) != 1 or argv[0] not in ("run", "test"):
+    if len(argv) != 1 or argv[0] not in ("run", "test", "fast"):
         print(__doc__)
         return 2
     ensure_venv()
     py = str(venv_python())
     if argv[0] == "run":
         cmd = [py, "-m", "desktop", "montecarlo", "--flights", "200", "--seed", "1", "--plots", "out"]
+    elif argv[0] == "fast":
+        # the development lane: no RocketPy flights, MicroPython interpreters or subprocesses
+        return subprocess.run([py, "-m", "pytest", "-q", "-m", "not slow"], cwd=str(ROOT)).returncode
     else:
         cmd = [py, "-m", "pytest", "-q"]
     env = dict(os.environ, APOGEE_REQUIRE_MICROPYTHON="1")
