@@ -13,6 +13,30 @@ flight; call ``step()`` once per sample with integer readings:
 After ``step()``: ``state``, ``events`` (bit mask of what happened at this sample),
 ``pyro_drogue`` / ``pyro_main`` (output levels to drive now), ``agl_mm``, ``vel_mmps``.
 
+Each sample flows one way: sensor health (``shared/health.py``) -> pad calibration on the pad
+(``shared/padcal.py``) -> the filter (``shared/detector.py``) -> the transition of the current
+state (``_transition``: one branch per state) -> proof of flight -> pyro timing.
+
+Transitions (``_transition``), each branch opening with its rule:
+
+| state | to | condition | configuration key |
+|---|---|---|---|
+| pad | boost | boost acceleration sustained (barometer-only: proof climb | `launch_accel_mps2`, |
+| | | and speed); never with ERR_ORIENTATION or ERR_BARO_ERRATIC | `launch_accel_time_s` |
+| boost..coast | pad | not proven within 10 s of launch, still near the pad | `proof_climb_m` |
+| boost | fast/coast | filtered acceleration below -2.5 m/s^2, or the timeout | `max_boost_s` |
+| fast | coast | estimated speed at or below the Mach lockout | `mach_lockout_mps` |
+| coast | fast | estimated speed above the Mach lockout | `mach_lockout_mps` |
+| boost..coast | drogue | proven, and apogee (+ delay) or the backup timer | `apogee_delay_s`, |
+| | | | `backup_drogue_s` |
+| drogue | main | proven, at or below the main altitude, descending, the | `main_deploy_m`, |
+| | | guard time after the drogue | `main_guard_s` |
+| main | landed | altitude within a band over a window | `landed_alt_m` |
+
+Apogee itself is declared by the filter's rule only while ``_apogee_enabled()``: coast, proven,
+above the proof climb, after the lockout, and an averaged deceleration between
+``coast_decel_mps2`` and 10 g.
+
 Safety (docs/DESIGN.md D1): every firing path (apogee, apogee delay, backup timer,
 main) requires ``flight_proven``: a boost sustained for ``launch_accel_time_s`` *and* a climb of
 ``proof_climb_m`` that the barometer holds for a second (barometer-only boards: that climb and
@@ -34,6 +58,15 @@ except ImportError:
 from shared.apogee import SeedRule, VelocityRule
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
+from shared.health import SensorHealth
+from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
+    ERR_BARO_ERRATIC,
+    ERR_ORIENTATION,
+    ERR_PAD_BARO_STEP,
+    G_MMPS2,
+    PAD_ERRORS,
+    PadCalibration,
+)
 
 # States, in flight order.
 PAD = const(0)
@@ -54,19 +87,6 @@ EV_MAIN = const(16)
 EV_LANDED = const(32)
 EVENT_NAMES = ("launch", "burnout", "apogee", "drogue", "main", "landed")
 
-# Pad calibration: quiet samples are averaged in blocks; the ground reference is the older of the
-# last two complete blocks, so the samples just before a launch (ignition, first motion) never
-# enter it. With no complete block yet (a short pad), all quiet samples so far are used.
-_CAL_BLOCK_MS = const(1000)
-_PAD_OFFSET_LIMIT_MM = const(0xFFFFF)  # 2**20 - 1: 1 km
-_G_MMPS2 = const(9807)
-# The pad reading of the axis must be within 50% of 1 g (see _check_orientation): a wrong part or range,
-# an inverted mount, or a board lying down (docs/DESIGN.md D4).
-_ONE_G_MIN = const(4903)
-_ONE_G_MAX = const(14710)
-# On the pad a barometric jump larger than this (mm) is a pressure step (av-bay sealed, a gust,
-# a glitch), not a climb: the filter and the ground reference re-base on the new level.
-_PAD_BARO_JUMP_MM = const(50000)
 _PROOF_HOLD_MS = const(1000)  # the proof climb must be held this long
 # Accelerometer-only boards cannot see a climb, so their boost must outlast any knock or drop.
 _ACCEL_ONLY_BOOST_MS = const(300)
@@ -94,11 +114,9 @@ STATE_RECORD_SIZE = const(71)  # struct.calcsize(_RECORD_FORMAT)
 _RESUME_SETTLE_MS = const(2000)
 _FALSE_LAUNCH_MS = const(10000)  # a launch not proven within this, near the pad, was not one
 
-# Error flags in ``errors``.
-ERR_ORIENTATION = const(1)  # pad accelerometer reading is not about +1 g
+# Error flags in ``errors`` (ERR_ORIENTATION, ERR_PAD_BARO_STEP and ERR_BARO_ERRATIC come from
+# shared/padcal.py).
 ERR_ACCEL_CLIPPED = const(2)  # at least one reading at the accelerometer's full scale
-ERR_PAD_BARO_STEP = const(4)  # the barometer jumped on the pad (re-based)
-ERR_BARO_ERRATIC = const(8)  # repeated jumps on the pad: a faulty barometer; launch is forbidden
 ERR_FALSE_LAUNCH = const(16)  # a launch without proof of flight went back to pad mode
 
 
@@ -124,30 +142,16 @@ class FlightComputer:
         rule = SeedRule() if config.seed_rule else VelocityRule()
         self.det = Detector(table, rule)
         self.kf = self.det.kf
+        self.health = SensorHealth(config)
+        self.pad = PadCalibration(config, ground_alt_mm)
         self.state = PAD
         self.events = 0
         self.errors = 0
         self.started = False
         self.now_ms = 0
         self._us_rem = 0
-        # pad calibration
-        self.ground_fixed = ground_alt_mm is not None
-        self.ground_alt_mm = ground_alt_mm if ground_alt_mm is not None else 0
-        self.one_g_mmps2 = _G_MMPS2
-        self.cal_samples = 0  # quiet pad samples that went into the current reference
-        self._pad_jumps = 0
-        self._last_jump_ms = 0
-        self._blk_ref_mm = 0
-        self._blk_alt = 0
-        self._blk_acc = 0
-        self._blk_n = 0
-        self._blk_start_ms = 0
-        self._prev_alt = 0
-        self._prev_acc = 0
-        self._prev_n = 0
-        self._all_alt = 0
-        self._all_acc = 0
-        self._all_n = 0
+        self.ground_alt_mm = self.pad.ground_alt_mm  # copied from self.pad while on the pad
+        self.one_g_mmps2 = G_MMPS2
         # flight
         self.boost_ms = 0  # how long the boost acceleration has been sustained
         self.boost_max_ms = 0  # the longest such stretch
@@ -175,28 +179,34 @@ class FlightComputer:
         self.agl_mm = 0
         self.baro_agl_mm = 0  # last fresh barometric reading above the pad (unfiltered)
         self.vel_mmps = 0
-        self.accel_clipped = 0  # count of clipped accelerometer readings
         self.settle_until_ms = 0  # after a resume: no apogee decision before this
         self._resume_pending = False
+
+    @property
+    def ground_fixed(self):
+        return self.pad.ground_fixed
+
+    @property
+    def cal_samples(self):
+        return self.pad.cal_samples
+
+    @property
+    def accel_clipped(self):
+        return self.health.accel_clipped
 
     def step(self, dt_us, alt_mm, accel_mmps2, have):
         """Process one sample; see the module docstring for units and outputs."""
         cfg = self.cfg
         self.events = 0
-        if not cfg.has_baro:
-            have &= HAVE_ACCEL
-        if not cfg.has_accel:
-            have &= HAVE_BARO
-        if have & HAVE_ACCEL and cfg.accel_limit_mmps2 and (
-                accel_mmps2 >= cfg.accel_limit_mmps2 or accel_mmps2 <= -cfg.accel_limit_mmps2):
-            have &= HAVE_BARO  # a clipped reading under-reads: use the barometer alone
-            self.accel_clipped += 1
+        health = self.health
+        have = health.judge(accel_mmps2, have)
+        clipped = health.clipped
+        if clipped:
             self.errors |= ERR_ACCEL_CLIPPED
-            clipped = True
-        else:
-            clipped = False
         if not self.started:
-            self._start(alt_mm, accel_mmps2, have)
+            self.started = True
+            self.det.start(self.pad.start(alt_mm, have), 0)
+            self.ground_alt_mm = self.pad.ground_alt_mm
             dt_us = 0
         else:
             total = self._us_rem + dt_us
@@ -204,7 +214,11 @@ class FlightComputer:
             self._us_rem = total % 1000
         state = self.state
         if state == PAD:
-            self._pad_update(alt_mm, accel_mmps2, have)
+            pad = self.pad
+            pad.update(self.now_ms, alt_mm, accel_mmps2, have, self.kf)
+            self.errors = (self.errors & ~PAD_ERRORS) | pad.errors
+            self.ground_alt_mm = pad.ground_alt_mm
+            self.one_g_mmps2 = pad.one_g_mmps2
         acc_kin = accel_mmps2 - self.one_g_mmps2
         kf = self.kf
         self._set_baro_weight()
@@ -215,7 +229,7 @@ class FlightComputer:
         # gates from 0.5 s after burnout: the motor's tail-off is a real, fast change
         settling = resuming or self.now_ms - self.burnout_ms < _GATE_START_MS
         coasting = state == FAST or state == COAST
-        if coasting and acc_kin > -_G_MMPS2 // 2:
+        if coasting and acc_kin > -G_MMPS2 // 2:
             # after burnout drag only decelerates: an axial specific force above +0.5 g is the
             # motor's tail-off, an ejection charge, a shock or a tumbling rocket (no staging)
             have &= HAVE_BARO
@@ -249,103 +263,9 @@ class FlightComputer:
             self.baro_agl_mm = alt_mm - self.ground_alt_mm
         self._update_averages(dt_us)
         self._update_boost(dt_us, acc_kin, have, clipped)
-        if state == PAD:
-            self._check_launch()
-        elif state <= COAST:
-            self._ascent(apogee)
-        else:
-            self._descent()
+        self._transition(apogee)
         self._check_proof(dt_us // 1000)
         self._pyro()
-
-    def _start(self, alt_mm, accel_mmps2, have):
-        self.started = True
-        self._blk_ref_mm = alt_mm if have & HAVE_BARO else 0
-        if not self.ground_fixed:
-            self.ground_alt_mm = self._blk_ref_mm
-        self.det.start(self._blk_ref_mm, 0)
-
-    def _pad_update(self, alt_mm, accel_mmps2, have):
-        """Average quiet pad samples into the ground references; re-base on a pressure step."""
-        if have & HAVE_BARO:
-            jump = alt_mm - (self.kf.alt_q4 >> 4)
-            if jump > _PAD_BARO_JUMP_MM or jump < -_PAD_BARO_JUMP_MM:
-                self.errors |= ERR_PAD_BARO_STEP
-                # one step is weather or the av-bay; three within a second is a broken sensor
-                self._pad_jumps = self._pad_jumps + 1 if self.now_ms - self._last_jump_ms < 1000 else 1
-                self._last_jump_ms = self.now_ms
-                if self._pad_jumps >= 3:
-                    self.errors |= ERR_BARO_ERRATIC
-                self.kf.reset(alt_mm, 0, 0)
-                self._blk_ref_mm = alt_mm
-                self._blk_alt = self._blk_acc = self._blk_n = 0
-                self._prev_n = self._all_n = 0
-                self._all_alt = self._all_acc = 0
-                if not self.ground_fixed:
-                    self.ground_alt_mm = alt_mm
-                return
-            if self.errors & ERR_BARO_ERRATIC and self.now_ms - self._last_jump_ms > 2000:
-                self.errors &= ~ERR_BARO_ERRATIC
-        if have & HAVE_ACCEL:
-            limit = self.cfg.launch_accel_mmps2
-            quiet = -limit < accel_mmps2 - self.one_g_mmps2 < limit
-            acc = accel_mmps2
-        else:
-            quiet = True
-            acc = _G_MMPS2
-        if not quiet:
-            return
-        d_alt = alt_mm - self._blk_ref_mm if have & HAVE_BARO else 0
-        # bounded so that a block's sum stays in 31 bits (1 km x 200 samples at 200 Hz) even if
-        # the board sits in pad mode while the barometer sees a flight (launch refused)
-        if d_alt > _PAD_OFFSET_LIMIT_MM:
-            d_alt = _PAD_OFFSET_LIMIT_MM
-        elif d_alt < -_PAD_OFFSET_LIMIT_MM:
-            d_alt = -_PAD_OFFSET_LIMIT_MM
-        self._blk_alt += d_alt
-        self._blk_acc += acc
-        self._blk_n += 1
-        if self._prev_n == 0:
-            self._all_alt += d_alt
-            self._all_acc += acc
-            self._all_n += 1
-        if self.now_ms - self._blk_start_ms >= _CAL_BLOCK_MS:
-            # two blocks (2 s) so that coarse quantisation or handling cannot make it flicker
-            self._check_orientation((self._blk_acc + self._prev_acc) // (self._blk_n + self._prev_n))
-            if self._prev_n:
-                self._apply_calibration(self._prev_alt, self._prev_acc, self._prev_n)
-            self._prev_alt = self._blk_alt
-            self._prev_acc = self._blk_acc
-            self._prev_n = self._blk_n
-            self._blk_alt = self._blk_acc = self._blk_n = 0
-            self._blk_start_ms = self.now_ms
-        elif self._prev_n == 0:
-            self._apply_calibration(self._all_alt, self._all_acc, self._all_n)
-
-    def _check_orientation(self, one_g):
-        """Quiet pad readings must average 1 g +-50% on the axis: catches a wrong part (ADXL345 for
-        ADXL375: 12.5 g or 0.08 g), a range setting off by 2 or more, an inverted mount (-1 g), a
-        board lying down (0 g), and passes an ADXL375 at the edge of its datasheet offset
-        (+-0.4 g) and scale (+-5%) on a rail tilted up to 30 degrees. Flags ERR_ORIENTATION, which
-        forbids launch, until the readings pass again."""
-        if not self.cfg.has_accel:
-            return
-        if _ONE_G_MIN <= one_g <= _ONE_G_MAX:
-            self.errors &= ~ERR_ORIENTATION
-        else:
-            self.errors |= ERR_ORIENTATION
-
-    def _apply_calibration(self, alt_sum, acc_sum, n):
-        """Take averages as the ground references. Sums are of altitude offsets from _blk_ref_mm
-        (metres) and of ~1 g readings over a few hundred samples: well inside 31 bits. An
-        accelerometer average outside 1 g +-25% is not used (a short pad may hold the first
-        motion): the nominal 1 g stays."""
-        if not self.ground_fixed:
-            self.ground_alt_mm = self._blk_ref_mm + alt_sum // n
-        one_g = acc_sum // n
-        if self.cfg.has_accel and _ONE_G_MIN <= one_g <= _ONE_G_MAX:
-            self.one_g_mmps2 = one_g
-        self.cal_samples = n
 
     def _set_baro_weight(self):
         """AltOS-style Mach de-weighting: full weight up to the lockout speed, then a ramp down to
@@ -411,20 +331,6 @@ class FlightComputer:
         else:
             self.boost_ms = 0
 
-    def _check_launch(self):
-        cfg = self.cfg
-        if self.errors & (ERR_ORIENTATION | ERR_BARO_ERRATIC):
-            return  # refuse to fly: board not upright, wrong accelerometer, or erratic barometer
-        if cfg.has_accel:
-            launch = self.boost_ms >= cfg.launch_accel_ms
-        else:
-            launch = self.agl_mm >= cfg.proof_climb_mm and self.vel_mmps >= cfg.proof_speed_mmps
-        if launch:
-            self.launched = True
-            self.launch_ms = self.now_ms
-            self.state = BOOST
-            self.events |= EV_LAUNCH
-
     def _check_proof(self, dt_ms):
         """flight_proven, once true, stays true (every firing path requires it)."""
         if self.agl_mm > self.max_agl_mm:
@@ -453,21 +359,59 @@ class FlightComputer:
             proven = proven and self.boost_max_ms >= _ACCEL_ONLY_BOOST_MS
         self.flight_proven = proven
 
-    def _ascent(self, apogee):
+    def _transition(self, apogee):
+        """One branch per state, each opening with its rule (the table in the module docstring)."""
         cfg = self.cfg
-        kf = self.kf
-        if self._false_launch():
-            return
-        fast = kf.vel_q4 >> 4 > cfg.mach_lockout_mmps
-        if self.state == BOOST:
-            if kf.acc_q4 < -2500 * 16 or self.now_ms - self.launch_ms > cfg.max_boost_ms:
-                self.burnout_ms = self.now_ms
-                self.events |= EV_BURNOUT
-                self.state = FAST if fast else COAST
-        elif self.state == FAST and not fast:
-            self.state = COAST
-        elif self.state == COAST and fast:
-            self.state = FAST
+        state = self.state
+        if state == PAD:
+            # launch: the boost sustained (barometer-only: the proof climb at the proof speed);
+            # refused while the board is not upright or the barometer is erratic
+            if self.errors & (ERR_ORIENTATION | ERR_BARO_ERRATIC):
+                return
+            if cfg.has_accel:
+                launch = self.boost_ms >= cfg.launch_accel_ms
+            else:
+                launch = self.agl_mm >= cfg.proof_climb_mm and self.vel_mmps >= cfg.proof_speed_mmps
+            if launch:
+                self.launched = True
+                self.launch_ms = self.now_ms
+                self.state = BOOST
+                self.events |= EV_LAUNCH
+        elif state <= COAST:
+            # ascent: back to the pad without proof (_false_launch); burnout; the Mach lockout;
+            # then apogee and the drogue
+            if self._false_launch():
+                return
+            fast = self.kf.vel_q4 >> 4 > cfg.mach_lockout_mmps
+            if state == BOOST:
+                # burnout: the filtered acceleration turns negative, or the boost timeout
+                if self.kf.acc_q4 < -2500 * 16 or self.now_ms - self.launch_ms > cfg.max_boost_ms:
+                    self.burnout_ms = self.now_ms
+                    self.events |= EV_BURNOUT
+                    self.state = FAST if fast else COAST
+            elif state == FAST:
+                if not fast:
+                    self.state = COAST
+            elif fast:
+                self.state = FAST
+            self._drogue_rule(apogee)
+        elif state == DROGUE:
+            # main: proven, at or below the main altitude, descending, after the guard time
+            if (self.flight_proven and self.agl_mm <= cfg.main_deploy_mm and self.vel_mmps < 0
+                    and self.now_ms - self.drogue_fired_ms >= cfg.main_guard_ms):
+                self.main_fired_ms = self.now_ms
+                self._main_off_ms = self.now_ms + cfg.pulse_ms
+                self.pyro_main = True
+                self.events |= EV_MAIN
+                self.state = MAIN
+            self._landing_rule()
+        elif state == MAIN:
+            self._landing_rule()
+
+    def _drogue_rule(self, apogee):
+        """Ascent: record apogee; fire the drogue (proven) when its delay is over, or on the
+        backup timer."""
+        cfg = self.cfg
         if apogee:
             self.apogee_ms = self.now_ms
             self.events |= EV_APOGEE
@@ -507,17 +451,9 @@ class FlightComputer:
         self._land_start_ms = self.now_ms
         self._land_min_mm = self._land_max_mm = self.agl_mm
 
-    def _descent(self):
+    def _landing_rule(self):
+        """Landed: in MAIN, the altitude stays within ``landed_alt_m`` over a window."""
         cfg = self.cfg
-        if (self.state == DROGUE and self.flight_proven and self.agl_mm <= cfg.main_deploy_mm
-                and self.vel_mmps < 0 and self.now_ms - self.drogue_fired_ms >= cfg.main_guard_ms):
-            self.main_fired_ms = self.now_ms
-            self._main_off_ms = self.now_ms + cfg.pulse_ms
-            self.pyro_main = True
-            self.events |= EV_MAIN
-            self.state = MAIN
-        if self.state == LANDED:
-            return
         agl = self.agl_mm
         if agl < self._land_min_mm:
             self._land_min_mm = agl
@@ -570,7 +506,11 @@ class FlightComputer:
          self.acc_avg_q4, self.max_vel_mmps) = fields
         self.launched = bool(flags & 1)
         self.flight_proven = bool(flags & 2)
-        self.ground_fixed = True
+        pad = self.pad
+        pad.ground_fixed = True
+        pad.ground_alt_mm = self.ground_alt_mm
+        pad.one_g_mmps2 = self.one_g_mmps2
+        pad.errors = self.errors & PAD_ERRORS
         self.started = True
         kf = self.kf
         kf.alt_q4, kf.vel_q4, kf.acc_q4, kf.bias_q4 = alt_q4, vel_q4, acc_q4, bias_q4
