@@ -6,6 +6,8 @@ uses. Any problem raises ``ConfigError`` with one line naming the key, the value
 range; unknown keys are errors, never ignored.
 """
 
+import math
+
 from shared.physics import G_MMPS2
 
 # key: (default, minimum, maximum, unit, meaning). Numbers accept int or float; 0 disables the
@@ -36,6 +38,25 @@ SCHEMA = {
         "the barometer's reading lag (its IIR/oversampling filter and the static port); compensated"),
     "accel_range_g": (0, 0, 1000, "g",
         "accelerometer full scale; readings at it are clipped and ignored (0 = unknown)"),
+    # Sensor arbitration and health (docs/DESIGN.md, "Sensor arbitration")
+    "accel_bias_max_mps2": (1.0, 0, 10, "m/s^2",
+        "largest accelerometer bias left after pad calibration (error budget of its velocity)"),
+    "accel_tilt_max_deg": (30, 0, 60, "deg",
+        "largest angle between the accelerometer's axis and the vertical (error budget of its velocity)"),
+    "apogee_guard_mps": (0, -50, 100, "m/s",
+        "no apogee while the accelerometer's lowest possible vertical velocity exceeds this"),
+    "baro_consistency_mps": (50, 10, 500, "m/s",
+        "barometric climb rate outside the accelerometer's velocity bounds by more than this is not motion"),
+    "baro_stuck_s": (1.0, 0.2, 10, "s", "identical barometer readings for this long in flight: frozen"),
+    "accel_stuck_s": (0.5, 0.1, 10, "s",
+        "identical accelerometer readings for this long while above 1 g (noise expected): frozen"),
+    "sensor_timeout_s": (0.5, 0.05, 10, "s", "no fresh reading of a sensor for this long: lost"),
+    "baro_rate_max_mps": (1500, 100, 5000, "m/s",
+        "a barometric reading that moved faster than this from the previous one is a spike"),
+    "mach_lockout_s": (0, 0, 120, "s",
+        "after launch: treated as above Mach (no apogee, barometer de-weighted) for this long (0 = off)"),
+    "main_backup_s": (0, 0, 600, "s",
+        "barometer lost under the drogue: main fires this long after the drogue at the latest (0 = off)"),
 }
 CHOICES = {
     "apogee_rule": ("velocity", ("velocity", "seed"),
@@ -75,6 +96,17 @@ class Config:
         self.landed_alt_mm = int(v["landed_alt_m"] * 1000)
         self.accel_limit_mmps2 = int(v["accel_range_g"] * G_MMPS2 * 98 // 100)  # 0 = no check
         self.baro_lag_ms = int(v["baro_lag_ms"])
+        self.accel_bias_max_mmps2 = int(v["accel_bias_max_mps2"] * 1000)
+        # 1 - cos(tilt) in 1/1024: the fraction of a specific force a tilt hides from the vertical
+        self.tilt_loss_1024 = int(round((1 - math.cos(math.radians(v["accel_tilt_max_deg"]))) * 1024))
+        self.apogee_guard_mmps = int(v["apogee_guard_mps"] * 1000)
+        self.baro_consistency_mmps = int(v["baro_consistency_mps"] * 1000)
+        self.baro_stuck_ms = int(v["baro_stuck_s"] * 1000)
+        self.accel_stuck_ms = int(v["accel_stuck_s"] * 1000)
+        self.sensor_timeout_ms = int(v["sensor_timeout_s"] * 1000)
+        self.baro_rate_max_mmps = int(v["baro_rate_max_mps"] * 1000)
+        self.mach_lockout_ms = int(v["mach_lockout_s"] * 1000)
+        self.main_backup_ms = int(v["main_backup_s"] * 1000)
         self.seed_rule = v["apogee_rule"] == "seed"
         self.has_baro = v["sensors"] in ("both", "baro")
         self.has_accel = v["sensors"] in ("both", "accel")

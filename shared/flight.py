@@ -56,9 +56,10 @@ except ImportError:
         return x
 
 from shared.apogee import SeedRule, VelocityRule
+from shared.arbitration import Arbitration
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
-from shared.health import SensorHealth
+from shared.health import HEALTH_ACCEL_BAD, HEALTH_BARO_BAD, SensorHealth
 from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
     ERR_BARO_ERRATIC,
     ERR_ORIENTATION,
@@ -85,7 +86,16 @@ EV_APOGEE = const(4)
 EV_DROGUE = const(8)
 EV_MAIN = const(16)
 EV_LANDED = const(32)
-EVENT_NAMES = ("launch", "burnout", "apogee", "drogue", "main", "landed")
+EV_HEALTH = const(64)  # a sensor's health changed (shared.health.HEALTH_* in health.flags)
+EV_MODE = const(128)  # the sensors the decisions rest on changed (``mode``, MODE_NAMES)
+EVENT_NAMES = ("launch", "burnout", "apogee", "drogue", "main", "landed", "health", "mode")
+
+# Decision modes (``mode``): which sensors are usable (docs/DESIGN.md, "Sensor arbitration").
+MODE_TIMER = const(0)  # neither: the backup timers only
+MODE_BARO = const(1)  # barometer only: speed and time lockouts (mach_lockout_mps, mach_lockout_s)
+MODE_ACCEL = const(2)  # accelerometer only: apogee when its highest possible velocity is <= 0
+MODE_BOTH = const(3)
+MODE_NAMES = ("timer only", "baro only", "accel only", "both")
 
 _PROOF_HOLD_MS = const(1000)  # the proof climb must be held this long
 # Accelerometer-only boards cannot see a climb, so their boost must outlast any knock or drop.
@@ -93,7 +103,6 @@ _ACCEL_ONLY_BOOST_MS = const(300)
 _DECEL_TAU_MS = const(500)  # time constant of the averaged acceleration used by the apogee gate
 _EMA_STEP_LIMIT = const(0xFFFFF)  # 2**20 - 1: keeps (x - avg) * dt_ms within 31 bits (dt_ms <= 1000)
 _INNOV_TAU_MS = const(300)  # time constant of the averaged barometric innovation
-_DIVERGED_MM = const(10000)  # averaged innovation beyond which coast follows the barometer alone
 # Innovation gates after burnout (shared/detector.py): coasting flight changes its acceleration
 # smoothly, so a reading this far from the estimate is an ejection charge, a shock or a pressure
 # transient. 50 m is eight times the barometer noise the gains assume; 30 m/s^2 is three g.
@@ -107,6 +116,12 @@ _COAST_ACC_MAX_Q4 = const(-78456)  # -0.5 g in 1/16 mm/s^2: the most a coasting 
 # -coast_decel_mps2. A filter re-converging from a large error (the barometer lying through Mach)
 # swings beyond -10 g; a tumbling rocket's (319-005) stays within it.
 _APOGEE_DECEL_MAX_MMPS2 = const(98067)
+
+# The filter's velocity is trusted as the start of an accelerometer-only bound only after the
+# barometer corrected it this long in coast: the bias model's settling (about 2.5 s) plus the
+# 1.6 s of history the anchor reaches back (shared/arbitration.py)
+_ANCHORED_MS = const(4000)
+_DESCENT_MIN_MMPS = const(2000)  # a slower "descent" under a parachute is not one to predict from
 
 _RECORD_FORMAT = "<BBBiiiiiiiiiiiiiiiii"
 _RECORD_VERSION = const(1)
@@ -142,7 +157,22 @@ class FlightComputer:
         rule = SeedRule() if config.seed_rule else VelocityRule()
         self.det = Detector(table, rule)
         self.kf = self.det.kf
+        # the bias state explains at most the error budget of the accelerometer (bias, and tilt
+        # seen as a constant offset of g): a barometric lie is not an accelerometer bias
+        self.kf.bias_limit_q4 = (config.accel_bias_max_mmps2
+                                 + (config.tilt_loss_1024 * G_MMPS2 >> 10)) << 4
         self.health = SensorHealth(config)
+        self.health.start_watch(config)
+        self.arb = Arbitration(config)
+        self.mode = (MODE_BARO if config.has_baro else 0) | (MODE_ACCEL if config.has_accel else 0)
+        self.baro_excluded = False  # coast: the barometer disagrees with the accelerometer's bounds
+        self._reanchor = False  # re-take the barometer's altitude at its next reading
+        self._good_agl_mm = 0  # descent: the last barometric reading that moved, and its rate
+        self._good_vel_mmps = 0
+        self._good_ms = -1
+        self._arb_ms = 0  # now_ms at the previous _arbitrate
+        self._baro_coast_ms = 0  # how long the barometer has been in use in coast, without a break
+        self._filter_anchored = False  # the barometer was in use long enough before it was lost
         self.pad = PadCalibration(config, ground_alt_mm)
         self.state = PAD
         self.events = 0
@@ -164,7 +194,6 @@ class FlightComputer:
         self.max_vel_mmps = 0
         self.acc_avg_q4 = 0
         self.innov_avg_q4 = 0
-        self.diverged = False
         self.apogee_ms = -1
         self.drogue_due_ms = -1
         self.drogue_fired_ms = -1
@@ -213,6 +242,9 @@ class FlightComputer:
             self.now_ms += total // 1000
             self._us_rem = total % 1000
         state = self.state
+        have = health.watch(self.now_ms, alt_mm, accel_mmps2, have, self.launched and state <= DROGUE)
+        if health.changed:
+            self.events |= EV_HEALTH
         if state == PAD:
             pad = self.pad
             pad.update(self.now_ms, alt_mm, accel_mmps2, have, self.kf)
@@ -220,10 +252,12 @@ class FlightComputer:
             self.ground_alt_mm = pad.ground_alt_mm
             self.one_g_mmps2 = pad.one_g_mmps2
         acc_kin = accel_mmps2 - self.one_g_mmps2
+        have = self._arbitrate(dt_us, alt_mm, accel_mmps2, acc_kin, have, clipped)
         kf = self.kf
         self._set_baro_weight()
-        if self._resume_pending and have & HAVE_BARO:
-            self._resume_pending = False
+        if (self._resume_pending or self._reanchor) and have & HAVE_BARO:
+            # after a reset, or the barometer back from an exclusion: its altitude, not its path
+            self._resume_pending = self._reanchor = False
             kf.set_altitude(alt_mm)
         resuming = self.now_ms < self.settle_until_ms
         # gates from 0.5 s after burnout: the motor's tail-off is a real, fast change
@@ -242,17 +276,20 @@ class FlightComputer:
         self._set_model(state)
         if resuming:
             self.det.model = MODEL_PLAIN  # after a reset the saved velocity may be old: re-learn
-        if state >= DROGUE or self.diverged or resuming:
-            # under a parachute the orientation is unknown; a diverged or resumed filter follows
-            # the barometer alone (see _set_model, restore_state)
+        if state >= DROGUE or resuming:
+            # under a parachute the orientation is unknown; a resumed filter follows the
+            # barometer alone (see restore_state)
             have &= HAVE_BARO
         if dt_us:
             enabled = self._apogee_enabled()
+            accel_only = self.mode == MODE_ACCEL
             if cfg.baro_lag_ms and have & HAVE_BARO:
                 # the reading shows the altitude of baro_lag_ms ago: h(t) ~ h(t - lag) + v lag
                 # (velocity in cm/s so that the product stays in 31 bits)
                 alt_mm += (self.vel_mmps // 10) * cfg.baro_lag_ms // 100
-            apogee = self.det.step(dt_us, alt_mm, acc_kin, have, enabled)
+            apogee = self.det.step(dt_us, alt_mm, acc_kin, have, enabled and not accel_only)
+            if accel_only and enabled:
+                apogee = self._accel_only_apogee()
         else:
             apogee = False
         if coasting and kf.acc_q4 > _COAST_ACC_MAX_Q4:
@@ -261,9 +298,15 @@ class FlightComputer:
         self.vel_mmps = kf.vel_q4 >> 4
         if have & HAVE_BARO:
             self.baro_agl_mm = alt_mm - self.ground_alt_mm
+            if state == DROGUE and health.baro_moved:
+                self._good_agl_mm = self.agl_mm
+                self._good_vel_mmps = self.vel_mmps
+                self._good_ms = self.now_ms
         self._update_averages(dt_us)
         self._update_boost(dt_us, acc_kin, have, clipped)
         self._transition(apogee)
+        if self.events & EV_LAUNCH and self.mode & MODE_ACCEL:
+            self.arb.start(self.vel_mmps)
         self._check_proof(dt_us // 1000)
         self._pyro()
 
@@ -292,17 +335,11 @@ class FlightComputer:
         Mach lockout) keeps the plain model: a bias learnt from a barometer that lies through
         Mach would carry the lie into the velocity.
 
-        In coast, a barometric innovation that averages more than _DIVERGED_MM means the model
-        no longer describes the flight (a motor failure, a premature ejection, a tumbling
-        rocket whose accelerometer reads thrust-like shocks): the filter then follows the
-        barometer alone, which it does within a fraction of a second, until it agrees again."""
-        avg = self.innov_avg_q4 >> 4
-        self.diverged = state == COAST and (avg > _DIVERGED_MM or avg < -_DIVERGED_MM)
-        if self.diverged:
-            self.det.model = MODEL_PLAIN
-        elif state == COAST:
+        A barometer excluded by the arbitration (``_arbitrate``) leaves the bias model to
+        correct with the accelerometer alone; the late-coast model needs the barometer."""
+        if state == COAST:
             vel = self.kf.vel_q4 >> 4
-            if -_LATE_COAST_MMPS < vel < _LATE_COAST_MMPS and self.cfg.has_baro:
+            if -_LATE_COAST_MMPS < vel < _LATE_COAST_MMPS and self.mode & MODE_BARO:
                 self.det.model = MODEL_GRAVITY
             else:
                 self.det.model = MODEL_BIAS
@@ -315,6 +352,7 @@ class FlightComputer:
                 and self.apogee_ms < 0 and self.now_ms >= self.settle_until_ms
                 and self.now_ms - self.launch_ms >= cfg.apogee_lockout_ms
                 and self.agl_mm >= cfg.proof_climb_mm
+                and not (self.arb.valid and self.arb.lower_mmps() > cfg.apogee_guard_mmps)
                 and cfg.coast_decel_mmps2 << 4 <= -self.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4)
 
     def _update_averages(self, dt_us):
@@ -382,7 +420,8 @@ class FlightComputer:
             # then apogee and the drogue
             if self._false_launch():
                 return
-            fast = self.kf.vel_q4 >> 4 > cfg.mach_lockout_mmps
+            fast = (self.kf.vel_q4 >> 4 > cfg.mach_lockout_mmps
+                    or self.now_ms - self.launch_ms < cfg.mach_lockout_ms)
             if state == BOOST:
                 # burnout: the filtered acceleration turns negative, or the boost timeout
                 if self.kf.acc_q4 < -2500 * 16 or self.now_ms - self.launch_ms > cfg.max_boost_ms:
@@ -399,11 +438,9 @@ class FlightComputer:
             # main: proven, at or below the main altitude, descending, after the guard time
             if (self.flight_proven and self.agl_mm <= cfg.main_deploy_mm and self.vel_mmps < 0
                     and self.now_ms - self.drogue_fired_ms >= cfg.main_guard_ms):
-                self.main_fired_ms = self.now_ms
-                self._main_off_ms = self.now_ms + cfg.pulse_ms
-                self.pyro_main = True
-                self.events |= EV_MAIN
-                self.state = MAIN
+                self._fire_main()
+            elif self._main_due_without_baro():
+                self._fire_main()
             self._landing_rule()
         elif state == MAIN:
             self._landing_rule()
@@ -451,6 +488,13 @@ class FlightComputer:
         self._land_start_ms = self.now_ms
         self._land_min_mm = self._land_max_mm = self.agl_mm
 
+    def _fire_main(self):
+        self.main_fired_ms = self.now_ms
+        self._main_off_ms = self.now_ms + self.cfg.pulse_ms
+        self.pyro_main = True
+        self.events |= EV_MAIN
+        self.state = MAIN
+
     def _landing_rule(self):
         """Landed: in MAIN, the altitude stays within ``landed_alt_m`` over a window."""
         cfg = self.cfg
@@ -471,6 +515,85 @@ class FlightComputer:
             self.pyro_drogue = False
         if self.pyro_main and self.now_ms >= self._main_off_ms:
             self.pyro_main = False
+
+    # Sensor arbitration and degraded modes (docs/DESIGN.md, "Sensor arbitration").
+
+    def _arbitrate(self, dt_us, alt_mm, accel_mmps2, acc_kin, have, clipped):
+        """The decision mode from each sensor's health; the accelerometer's velocity bounds from
+        launch; in coast, the barometer left out while it disagrees with them. Returns ``have``
+        without an excluded barometer."""
+        cfg = self.cfg
+        arb = self.arb
+        flags = self.health.flags
+        dt_ms = self.now_ms - self._arb_ms
+        self._arb_ms = self.now_ms
+        state = self.state
+        coasting = state == FAST or state == COAST
+        if flags & HEALTH_ACCEL_BAD and arb.valid:
+            arb.stop()  # its integral no longer bounds anything, for the rest of the flight
+        if arb.valid:
+            if coasting and acc_kin > -G_MMPS2 // 2 and not clipped:
+                arb.integrate_missing(dt_ms)  # not drag: a shock or an ejection (see step)
+            elif have & HAVE_ACCEL or clipped:
+                arb.integrate(dt_ms, acc_kin, accel_mmps2, clipped)
+            else:
+                arb.integrate_missing(dt_ms)
+        if cfg.has_baro:
+            arb.add_baro(self.now_ms, alt_mm, have & HAVE_BARO, self.kf.vel_q4 >> 4)
+        mode = 0
+        if cfg.has_baro and not flags & HEALTH_BARO_BAD:
+            mode = MODE_BARO
+        if cfg.has_accel and not flags & HEALTH_ACCEL_BAD and (arb.valid or not self.launched):
+            mode |= MODE_ACCEL
+        self.baro_excluded = coasting and mode == MODE_BOTH and not arb.baro_consistent
+        if self.baro_excluded:
+            mode = MODE_ACCEL
+        if mode & MODE_BARO and state == COAST and self._baro_coast_ms < _ANCHORED_MS:
+            self._baro_coast_ms += dt_ms
+        if mode != self.mode:
+            if self.mode & MODE_BARO and not mode & MODE_BARO:
+                arb.set_anchor()
+                self._filter_anchored = self._baro_coast_ms >= _ANCHORED_MS
+                self._baro_coast_ms = 0
+            elif mode & MODE_BARO and not self.mode & MODE_BARO:
+                self._reanchor = True
+            self.mode = mode
+            self.events |= EV_MODE
+        if not mode & MODE_BARO:
+            have &= HAVE_ACCEL
+        return have
+
+    def _accel_only_apogee(self):
+        """Accelerometer only (no barometer, or it is lost, frozen or excluded): apogee when the
+        highest vertical velocity its error budget allows is at or below zero: the track's upper
+        bound from launch, or, if the barometer had corrected the filter in coast for
+        _ANCHORED_MS before it was lost, the filter's velocity before the fault was detected plus
+        the track's change and margin since (``Arbitration.set_anchor``). Never early; late by the
+        margin / g. A clipped track bounds nothing from above: then the backup timer."""
+        arb = self.arb
+        if not arb.upper_valid:
+            return False
+        return arb.upper_mmps() <= 0 or (
+            self._filter_anchored and arb.anchored_upper_mmps() <= 0)
+
+    def _main_due_without_baro(self):
+        """Barometer lost or frozen under the drogue: the main fires when the last barometric
+        reading that moved and the descent rate then predict the main altitude, and at
+        ``main_backup_s`` after the drogue at the latest."""
+        cfg = self.cfg
+        if not cfg.has_baro or self.mode & MODE_BARO or not self.flight_proven:
+            return False
+        since_drogue_ms = self.now_ms - self.drogue_fired_ms
+        if since_drogue_ms < cfg.main_guard_ms:
+            return False
+        if cfg.main_backup_ms and since_drogue_ms >= cfg.main_backup_ms:
+            return True
+        if self._good_ms < 0 or self._good_vel_mmps > -_DESCENT_MIN_MMPS:
+            return False  # no descent seen: no prediction
+        drop_cm = (self._good_agl_mm - cfg.main_deploy_mm) // 10
+        # time to fall drop_cm at the descent rate, in 1/100 s (cm and cm/s: within 31 bits)
+        return drop_cm <= 0 or self.now_ms - self._good_ms >= drop_cm * 100 // (
+            -self._good_vel_mmps // 10) * 10
 
     # Resume after a reset in flight (docs/DESIGN.md D3). The device writes this record to
     # memory that survives a reset (RTC memory, or a small flash record) at launch and at every

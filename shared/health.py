@@ -4,9 +4,41 @@ Portable and allocation-free per sample. ``SensorHealth.judge()`` takes the samp
 mask (``shared.detector.HAVE_BARO | HAVE_ACCEL``) and returns the mask of the readings that may
 be used: a sensor the board does not have (``sensors`` in the configuration) is never used, and
 an accelerometer reading at its full scale under-reads, so the sample uses the barometer alone.
+
+``SensorHealth.watch()`` then judges each sensor over time (docs/DESIGN.md, "Sensor
+arbitration"): frozen (identical readings for ``baro_stuck_s`` in flight; for the accelerometer
+``accel_stuck_s`` while it reads more than 1 g, where noise and change are certain), lost (no
+fresh reading for ``sensor_timeout_s``), and single readings that are impossible (a barometric
+altitude outside the atmosphere a rocket flies in, or one that moved faster than
+``baro_rate_max_mps`` from the previous reading). ``flags`` holds the HEALTH_* bits; a frozen or
+lost sensor's readings are not used while the condition lasts.
 """
 
+try:
+    from micropython import const
+except ImportError:
+    def const(x):
+        return x
+
 from shared.detector import HAVE_ACCEL, HAVE_BARO
+
+HEALTH_BARO_STUCK = const(1)
+HEALTH_BARO_LOST = const(2)
+HEALTH_ACCEL_STUCK = const(4)
+HEALTH_ACCEL_LOST = const(8)
+HEALTH_BARO_BAD = const(3)  # HEALTH_BARO_STUCK | HEALTH_BARO_LOST
+HEALTH_ACCEL_BAD = const(12)  # HEALTH_ACCEL_STUCK | HEALTH_ACCEL_LOST
+HEALTH_NAMES = ("baro frozen", "baro lost", "accel frozen", "accel lost")
+
+# ISA altitudes of the barometer's physical range (1100 hPa and 10 hPa) widened by a margin: a
+# reading outside is a bus or conversion error, never weather or flight.
+_BARO_ALT_MIN_MM = const(-2000000)
+_BARO_ALT_MAX_MM = const(32000000)
+# A barometric step larger than baro_rate_max x dt plus this (the filter's 50 m outlier gate) in
+# one sample is a spike; beyond _RATE_DT_MAX_MS (a gap) no rate is judged.
+_SPIKE_ALLOW_MM = const(50000)
+_RATE_DT_MAX_MS = const(200)
+_ONE_G_MMPS2 = const(9807)
 
 
 class SensorHealth:
@@ -32,4 +64,68 @@ class SensorHealth:
             self.clipped = True
         else:
             self.clipped = False
+        return have
+
+    def start_watch(self, config):
+        """Thresholds and state of ``watch`` (called once, from the constructor's owner)."""
+        self.baro_stuck_ms = config.baro_stuck_ms
+        self.accel_stuck_ms = config.accel_stuck_ms
+        self.timeout_ms = config.sensor_timeout_ms
+        self.baro_rate_max_mmps = config.baro_rate_max_mmps
+        self.flags = 0
+        self.changed = False  # flags changed at this sample
+        self.baro_spikes = 0  # count of impossible barometric readings not used
+        self.baro_moved = False  # this sample's barometric reading differs from the previous one
+        self._baro_last = 0
+        self._baro_seen = False
+        self._baro_fresh_ms = 0
+        self._baro_run_ms = 0  # when the current run of identical readings began
+        self._acc_last = 0
+        self._acc_seen = False
+        self._acc_fresh_ms = 0
+        self._acc_run_ms = 0
+
+    def watch(self, now_ms, alt_mm, accel_mmps2, have, in_flight):
+        """Judge each sensor over time; returns ``have`` without the readings not to be used.
+        Frozen and impossible readings are judged only ``in_flight`` (after launch), where noise
+        is certain; on the pad, shared/padcal.py judges barometric jumps."""
+        flags = 0
+        self.baro_moved = False
+        if self.has_baro:
+            if have & HAVE_BARO:
+                dt_ms = now_ms - self._baro_fresh_ms
+                step = alt_mm - self._baro_last
+                if step < 0:
+                    step = -step
+                if in_flight and not _BARO_ALT_MIN_MM < alt_mm < _BARO_ALT_MAX_MM or (
+                        in_flight and self._baro_seen and dt_ms <= _RATE_DT_MAX_MS
+                        and step > self.baro_rate_max_mmps * dt_ms // 1000 + _SPIKE_ALLOW_MM):
+                    have &= HAVE_ACCEL
+                    self.baro_spikes += 1
+                if step or not self._baro_seen:
+                    self._baro_run_ms = now_ms
+                    self.baro_moved = True
+                self._baro_last = alt_mm
+                self._baro_seen = True
+                self._baro_fresh_ms = now_ms
+            if in_flight and self._baro_seen and now_ms - self._baro_run_ms >= self.baro_stuck_ms:
+                flags |= HEALTH_BARO_STUCK
+                have &= HAVE_ACCEL
+            if now_ms - self._baro_fresh_ms >= self.timeout_ms:
+                flags |= HEALTH_BARO_LOST
+        if self.has_accel:
+            if have & HAVE_ACCEL or self.clipped:
+                if accel_mmps2 != self._acc_last or not self._acc_seen or (
+                        -_ONE_G_MMPS2 < accel_mmps2 < _ONE_G_MMPS2):
+                    self._acc_run_ms = now_ms
+                self._acc_last = accel_mmps2
+                self._acc_seen = True
+                self._acc_fresh_ms = now_ms
+            if in_flight and self._acc_seen and now_ms - self._acc_run_ms >= self.accel_stuck_ms:
+                flags |= HEALTH_ACCEL_STUCK
+                have &= HAVE_BARO
+            if now_ms - self._acc_fresh_ms >= self.timeout_ms:
+                flags |= HEALTH_ACCEL_LOST
+        self.changed = flags != self.flags
+        self.flags = flags
         return have

@@ -81,6 +81,7 @@ class Kalman:
         self.acc_q4 = 0
         self.bias_q4 = 0
         self.baro_weight_256 = 256  # barometer innovations are scaled by this / 256 (Mach de-weighting)
+        self.bias_limit_q4 = RATE_LIMIT_Q4  # |bias_q4| at most this: the bias a real sensor can have
         self.innov_alt_q4 = 0  # last barometric innovation, before weighting
 
     def reset(self, alt_mm, vel_mmps=0, acc_mmps2=0):
@@ -120,7 +121,7 @@ class Kalman:
         ea = self._accel_innovation(acc_mmps2)
         self._add2(eh, ea, row, 25)
         self.bias_q4 = _clamp(self.bias_q4 + _mul_gain(eh, row[37], row[38])
-                              + _mul_gain(ea, row[39], row[40]), RATE_LIMIT_Q4)
+                              + _mul_gain(ea, row[39], row[40]), self.bias_limit_q4)
 
     def correct_gravity(self, row, alt_mm):
         """Late coast: correct with a barometric altitude (mm) and the pseudo-measurement that the

@@ -17,7 +17,8 @@ from desktop.io.importers import read_flight
 from shared.altitude import pressure_to_alt_mm
 from shared.config import ConfigError, load_config
 from shared.detector import HAVE_ACCEL, HAVE_BARO
-from shared.flight import EVENT_NAMES, STATE_NAMES, FlightComputer
+from shared.flight import EV_HEALTH, EV_MODE, EVENT_NAMES, MODE_NAMES, STATE_NAMES, FlightComputer
+from shared.health import HEALTH_NAMES
 
 
 @dataclass
@@ -26,9 +27,13 @@ class Event:
     index: int
     time_s: float
     altitude_m: float  # filtered altitude above the pad at that sample
+    detail: str = ""  # health: the sensors' faults; mode: the sensors decisions rest on
 
     def as_dict(self):
-        return {"event": self.event, "time_s": round(self.time_s, 6), "altitude_m": round(self.altitude_m, 2)}
+        out = {"event": self.event, "time_s": round(self.time_s, 6), "altitude_m": round(self.altitude_m, 2)}
+        if self.detail:
+            out["detail"] = self.detail
+        return out
 
 
 @dataclass
@@ -109,7 +114,8 @@ def replay(log, config):
         if fc.events:
             for bit, name in enumerate(EVENT_NAMES):
                 if fc.events & (1 << bit):
-                    events.append(Event(name, i, float(log.time_s[i]), fc.agl_mm / 1000))
+                    events.append(Event(name, i, float(log.time_s[i]), fc.agl_mm / 1000,
+                                        _detail(fc, 1 << bit)))
     notes = []
     if fc.ground_fixed:
         notes.append("ground reference from metadata ground_pressure_pa")
@@ -117,6 +123,16 @@ def replay(log, config):
         notes.append("ground reference from %d quiet pad samples" % fc.cal_samples)
     return ReplayResult(events, log.time_s, out["raw"], out["agl"], out["vel"], out["acc"], state,
                         pyro_d, pyro_m, fc.cal_samples, fc.errors, notes)
+
+
+def _detail(fc, bit):
+    """What a health or mode event changed to."""
+    if bit == EV_HEALTH:
+        faults = [name for k, name in enumerate(HEALTH_NAMES) if fc.health.flags & (1 << k)]
+        return ", ".join(faults) or "healthy"
+    if bit == EV_MODE:
+        return MODE_NAMES[fc.mode] + (" (barometer excluded)" if fc.baro_excluded else "")
+    return ""
 
 
 def config_for(log, config_path=None, overrides=None):
@@ -211,7 +227,8 @@ def run(args):
     if not result.events:
         print("no events")
     for e in result.events:
-        print("%-8s t = %9.3f s   altitude %8.1f m AGL" % (e.event, e.time_s, e.altitude_m))
+        print("%-8s t = %9.3f s   altitude %8.1f m AGL%s" % (e.event, e.time_s, e.altitude_m,
+                                                          "   " + e.detail if e.detail else ""))
     print("max altitude %.1f m AGL; final state %s" % (float(np.nanmax(result.agl_m)),
                                                         STATE_NAMES[int(result.state[-1])]))
     return 0

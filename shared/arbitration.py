@@ -1,0 +1,236 @@
+"""Sensor arbitration by physics: the accelerometer's bounds on the vertical velocity, and the
+test of the barometer against them (docs/DESIGN.md, "Sensor arbitration").
+
+Portable and allocation-free per sample.
+
+Velocity bounds. From launch, the kinematic acceleration (specific force minus the pad's 1 g) is
+integrated into ``vel_mmps``. Its error is bounded: a bias left after pad calibration
+(``accel_bias_max_mps2``) errs by at most b per second; a tilt of at most ``accel_tilt_max_deg``
+between the sensing axis and the vertical hides at most (1 - cos tilt) of the specific force
+(tilted flight path) or of the kinematic acceleration (a board mounted off-axis, calibrated on the
+pad at g cos tilt). So ``margin_mmps`` grows each sample by
+(b + (1 - cos tilt) max(|specific force|, |kinematic acceleration|)) dt, and the true vertical
+velocity lies within ``vel_mmps`` +- ``margin_mmps``. A clipped reading under-reads: the lower
+bound stays valid, the upper one does not (``upper_valid``). A frozen or lost accelerometer
+(``shared/health.py``) ends the track (``valid``).
+
+Barometer consistency. Readings are averaged in slots of ``_SLOT_MS``; the climb rate between
+the newest slot and the one ``_WINDOW_SLOTS`` earlier is the mean vertical velocity over that
+span, which the accelerometer's track averaged over the same slots must match within its margin
+plus ``baro_consistency_mps``. A barometric change outside that (a static-port error through
+Mach, an airbrake or ejection transient, a frozen sensor in flight) is not motion:
+``baro_consistent`` is False until a window agrees again.
+"""
+
+from array import array
+
+try:
+    from micropython import const
+except ImportError:
+    def const(x):
+        return x
+
+from shared.config import G_MMPS2
+
+_SLOT_MS = const(50)  # averaging slot: 5 readings at 100 Hz, 1 at 20 Hz
+_WINDOW_SLOTS = const(10)  # 0.5 s window: a 200 m transient reads as 400 m/s, 6 m noise as ~8 m/s
+# 1.6 s of history: the accelerometer-only velocity is anchored before the barometer's fault was
+# detected (a frozen run is detected after baro_stuck_s, a loss after sensor_timeout_s)
+_HISTORY_SLOTS = const(32)
+# after an inconsistent window the barometer is consistent again only when every window over this
+# long agrees: a window is this long, so the transient has left it
+_READMIT_MS = const(500)
+_ACC_LIMIT = const(0xFFFFF)  # 2**20 - 1 mm/s^2 (107 g): keeps acc x dt_ms (<= 1000) in 31 bits
+_DT_LIMIT_MS = const(1000)
+_SLOT_STEP_LIMIT_MM = const(0xFFFFF)  # 2**20 - 1 mm (1 km) from the previous slot: sums in 31 bits
+_VEL_LIMIT_MMPS = const(0x3FFFFF)  # 2**22 - 1 mm/s (4 km/s): a slot's sum of velocities in 31 bits
+
+
+def _clamp(x, limit):
+    if x > limit:
+        return limit
+    if x < -limit:
+        return -limit
+    return x
+
+
+class Arbitration:
+    """The accelerometer's velocity bounds and the barometer's consistency with them."""
+
+    def __init__(self, config):
+        self.bias_max_mmps2 = config.accel_bias_max_mmps2
+        self.tilt_loss_1024 = config.tilt_loss_1024
+        self.tol_mmps = config.baro_consistency_mmps
+        self.valid = False  # the track runs (from launch, healthy accelerometer)
+        self.upper_valid = False
+        self.vel_mmps = 0
+        self.margin_mmps = 0
+        self._vel_um = 0  # sub-mm/s remainders (um/s)
+        self._margin_um = 0
+        self.anchor_filter_mmps = 0  # see set_anchor
+        self.anchor_track_mmps = 0
+        self.anchor_margin_mmps = 0
+        self.baro_consistent = True
+        self.baro_rate_mmps = 0  # last windowed barometric climb rate
+        self._agree_ms = 0  # when the current run of agreeing windows began (-1: none)
+        # history of slots: barometric altitude mean (mm), track velocity mean (mm/s), mean time
+        # (ms), no barometric reading (0/1), and at the slot's end the filter's velocity (mm/s)
+        # and the track's margin (mm/s)
+        self._alt = array("i", [0] * _HISTORY_SLOTS)
+        self._vel = array("i", [0] * _HISTORY_SLOTS)
+        self._t = array("i", [0] * _HISTORY_SLOTS)
+        self._empty = array("b", [0] * _HISTORY_SLOTS)
+        self._fvel = array("i", [0] * _HISTORY_SLOTS)
+        self._margin = array("i", [0] * _HISTORY_SLOTS)
+        self._slots = 0  # slots filled (saturates at _HISTORY_SLOTS)
+        self._head = 0  # index of the newest slot
+        self._slot_start_ms = 0
+        self._alt_ref = 0  # the previous slot's mean: this slot's sums are offsets from it
+        self._alt_sum = 0
+        self._alt_n = 0
+        self._vel_sum = 0
+        self._vel_n = 0
+        self._t_sum = 0
+
+    def start(self, vel_mmps):
+        """Launch: the track starts from the filter's velocity (it follows the accelerometer in
+        the first tenth of a second of the boost)."""
+        self.valid = True
+        self.upper_valid = True
+        self.vel_mmps = vel_mmps
+        self.margin_mmps = 0
+        self._vel_um = self._margin_um = 0
+
+    def stop(self):
+        """The accelerometer froze or was lost: its integral no longer bounds anything."""
+        self.valid = False
+        self.upper_valid = False
+        self.baro_consistent = True
+
+    def integrate(self, dt_ms, acc_kin_mmps2, specific_mmps2, clipped):
+        """Add one accelerometer reading (kinematic and specific force, mm/s^2) held for dt_ms."""
+        if not self.valid:
+            return
+        if dt_ms > _DT_LIMIT_MS:
+            dt_ms = _DT_LIMIT_MS
+        acc = _clamp(acc_kin_mmps2, _ACC_LIMIT)
+        spec = _clamp(specific_mmps2, _ACC_LIMIT)
+        if clipped:
+            self.upper_valid = False
+        um = self._vel_um + acc * dt_ms
+        self.vel_mmps = _clamp(self.vel_mmps + um // 1000, _VEL_LIMIT_MMPS)
+        self._vel_um = um % 1000
+        if spec < 0:
+            spec = -spec
+        if acc < 0:
+            acc = -acc
+        if acc > spec:
+            spec = acc
+        grow = (self.bias_max_mmps2 + (self.tilt_loss_1024 * spec >> 10)) * dt_ms
+        um = self._margin_um + grow
+        self.margin_mmps = _clamp(self.margin_mmps + um // 1000, _VEL_LIMIT_MMPS)
+        self._margin_um = um % 1000
+
+    def integrate_missing(self, dt_ms):
+        """An accelerometer sample missing (dropout, a reading not used): the velocity is
+        unknown by up to 1 g x dt more; the track's velocity holds."""
+        if not self.valid:
+            return
+        if dt_ms > _DT_LIMIT_MS:
+            dt_ms = _DT_LIMIT_MS
+        self.margin_mmps = _clamp(self.margin_mmps + G_MMPS2 * dt_ms // 1000 + 1, _VEL_LIMIT_MMPS)
+
+    def lower_mmps(self):
+        """The lowest vertical velocity the accelerometer allows."""
+        return self.vel_mmps - self.margin_mmps
+
+    def upper_mmps(self):
+        """The highest vertical velocity the accelerometer allows."""
+        return self.vel_mmps + self.margin_mmps
+
+    def add_baro(self, now_ms, alt_mm, fresh, filter_vel_mmps):
+        """Average a barometric reading (``fresh``) into the current slot with the track's
+        velocity; on a full slot record the history and judge the barometer against the
+        accelerometer's bounds."""
+        if fresh:
+            if self._alt_n == 0 and self._slots == 0:
+                self._alt_ref = alt_mm
+            self._alt_sum += _clamp(alt_mm - self._alt_ref, _SLOT_STEP_LIMIT_MM)
+            self._alt_n += 1
+        self._vel_sum += self.vel_mmps
+        self._vel_n += 1
+        self._t_sum += now_ms - self._slot_start_ms
+        if now_ms - self._slot_start_ms < _SLOT_MS:
+            return
+        head = self._head + 1
+        if head == _HISTORY_SLOTS:
+            head = 0
+        self._head = head
+        if self._alt_n:
+            alt = self._alt_ref + self._alt_sum // self._alt_n
+            self._empty[head] = 0
+        else:
+            alt = self._alt_ref  # no reading in this slot: windows over it are not judged
+            self._empty[head] = 1
+        self._alt[head] = alt
+        self._vel[head] = self._vel_sum // self._vel_n
+        self._t[head] = self._slot_start_ms + self._t_sum // self._vel_n
+        self._fvel[head] = filter_vel_mmps
+        self._margin[head] = self.margin_mmps
+        self._alt_ref = alt
+        self._alt_sum = self._alt_n = self._vel_sum = self._vel_n = self._t_sum = 0
+        self._slot_start_ms = now_ms
+        if self._slots < _HISTORY_SLOTS:
+            self._slots += 1
+        if self._slots > _WINDOW_SLOTS:
+            self._judge(head)
+
+    def _judge(self, head):
+        oldest = head - _WINDOW_SLOTS
+        if oldest < 0:
+            oldest += _HISTORY_SLOTS
+        vel_sum = 0
+        empty = 0
+        i = oldest
+        for _ in range(_WINDOW_SLOTS + 1):
+            vel_sum += self._vel[i]
+            empty += self._empty[i]
+            i += 1
+            if i == _HISTORY_SLOTS:
+                i = 0
+        span_ms = self._t[head] - self._t[oldest]
+        if empty or span_ms <= 0:
+            return
+        rise_mm = _clamp(self._alt[head] - self._alt[oldest], _SLOT_STEP_LIMIT_MM)
+        self.baro_rate_mmps = rise_mm * 1000 // span_ms
+        if not self.valid:
+            self.baro_consistent = True
+            return
+        diff = self.baro_rate_mmps - vel_sum // (_WINDOW_SLOTS + 1)
+        allowed = self.margin_mmps + self.tol_mmps
+        if -allowed <= diff <= allowed:
+            if self._agree_ms < 0:
+                self._agree_ms = self._t[head]
+            self.baro_consistent = self.baro_consistent or self._t[head] - self._agree_ms >= _READMIT_MS
+        else:
+            self._agree_ms = -1
+            self.baro_consistent = False
+
+    def set_anchor(self):
+        """The barometer is no longer usable: anchor the accelerometer-only velocity at the
+        oldest slot of the history (before a frozen run, a loss or a transient was detected):
+        the filter's velocity then, and the track's velocity and margin then."""
+        i = self._head + 1 if self._slots == _HISTORY_SLOTS else self._head - self._slots + 1
+        if i >= _HISTORY_SLOTS:
+            i -= _HISTORY_SLOTS
+        elif i < 0:
+            i += _HISTORY_SLOTS
+        self.anchor_filter_mmps = self._fvel[i]
+        self.anchor_track_mmps = self._vel[i]
+        self.anchor_margin_mmps = self._margin[i]
+
+    def anchored_upper_mmps(self):
+        """Highest vertical velocity: the filter's at the anchor plus the track's change since,
+        plus the margin grown since."""
+        return (self.anchor_filter_mmps + self.vel_mmps - self.anchor_track_mmps
+                + self.margin_mmps - self.anchor_margin_mmps)
