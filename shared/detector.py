@@ -14,7 +14,7 @@ except ImportError:
     def const(x):
         return x
 
-from shared.kalman import MEAS_LIMIT_MM, Kalman
+from shared.kalman import MEAS_LIMIT_MM, RATE_LIMIT_Q4, Kalman
 
 HAVE_BARO = const(1)
 HAVE_ACCEL = const(2)
@@ -35,6 +35,11 @@ MAX_PREDICT_STEPS = const(600)
 # Barometric transients (ejection, Mach) last up to about a second.
 BARO_RESYNC_US = const(1000000)
 ACCEL_RESYNC_US = const(100000)
+# After a re-synchronisation the gate stays open until the innovation has stayed inside it this
+# long: the filter then re-converges as the linear filter its gains describe. A gate that closed
+# again at the first small innovation would cut the re-convergence at every overshoot and turn a
+# large error into a limit cycle (docs/DESIGN.md, "A filter that always re-converges").
+GATE_REARM_US = const(3000000)
 
 
 def _clamp(x):
@@ -65,6 +70,9 @@ class Detector:
         self.gate_alt_mm = 0
         self.gate_acc_mmps2 = 0
         self.outlier_us = array("i", (0, 0))  # consecutive outlier time: barometer, accelerometer
+        self.inside_us = array("i", (0, 0))  # time inside the gate since it opened (-1: closed)
+        self.inside_us[0] = self.inside_us[1] = -1
+        self.acc_max_q4 = RATE_LIMIT_Q4  # ceiling of the acceleration state (coast: -0.5 g)
         self.outliers = 0  # count of rejected readings
         self.model = MODEL_PLAIN
 
@@ -102,18 +110,32 @@ class Detector:
             kf.correct_baro(row, alt_mm)
         elif have == HAVE_ACCEL:
             kf.correct_accel(row, acc_mmps2)
+        if kf.acc_q4 > self.acc_max_q4:
+            kf.acc_q4 = self.acc_max_q4
         return self.rule.update(kf, row[0], enabled)
 
     def _outlier(self, e, gate, sensor, dt_us, resync_us):
         """True if the innovation ``e`` is beyond ``gate`` and this sensor's run of outliers is
-        still shorter than ``resync_us`` (then the reading is not used)."""
-        if -gate <= e <= gate:
+        still shorter than ``resync_us`` (then the reading is not used). Once re-synchronised the
+        gate stays open until the innovation has stayed inside it for GATE_REARM_US."""
+        inside = -gate <= e <= gate
+        if self.inside_us[sensor] >= 0:
+            if not inside:
+                self.inside_us[sensor] = 0
+                return False
+            self.inside_us[sensor] += dt_us
+            if self.inside_us[sensor] >= GATE_REARM_US:
+                self.inside_us[sensor] = -1
+            return False
+        if inside:
             self.outlier_us[sensor] = 0
             return False
         self.outlier_us[sensor] += dt_us
         if self.outlier_us[sensor] < resync_us:
             self.outliers += 1
             return True
+        self.outlier_us[sensor] = 0
+        self.inside_us[sensor] = 0  # re-synchronise: open the gate
         return False
 
     def _set_period(self, dt_us):

@@ -59,6 +59,7 @@ from shared.apogee import SeedRule, VelocityRule
 from shared.arbitration import Arbitration
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
+from shared.kalman import RATE_LIMIT_Q4
 from shared.health import HEALTH_ACCEL_BAD, HEALTH_BARO_BAD, SensorHealth
 from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
     ERR_BARO_ERRATIC,
@@ -106,11 +107,11 @@ _INNOV_TAU_MS = const(300)  # time constant of the averaged barometric innovatio
 # Innovation gates after burnout (shared/detector.py): coasting flight changes its acceleration
 # smoothly, so a reading this far from the estimate is an ejection charge, a shock or a pressure
 # transient. 50 m is eight times the barometer noise the gains assume; 30 m/s^2 is three g.
-_GATE_ALT_MM = const(50000)
+GATE_ALT_MM = const(50000)
 _LATE_COAST_MMPS = const(30000)  # below this vertical speed in coast, acceleration = -g
-_GATE_ACC_MMPS2 = const(30000)
+GATE_ACC_MMPS2 = const(30000)
 _GATE_START_MS = const(500)
-_COAST_ACC_MAX_Q4 = const(-78456)  # -0.5 g in 1/16 mm/s^2: the most a coasting rocket's vertical
+COAST_ACC_MAX_Q4 = const(-78456)  # -0.5 g in 1/16 mm/s^2: the most a coasting rocket's vertical
 # acceleration can be (it is -g - drag going up; -0.5 g leaves room for tilt and noise)
 # Near apogee vertical drag vanishes: the averaged acceleration must lie between -10 g and
 # -coast_decel_mps2. A filter re-converging from a large error (the barometer lying through Mach)
@@ -122,6 +123,10 @@ _APOGEE_DECEL_MAX_MMPS2 = const(98067)
 # 1.6 s of history the anchor reaches back (shared/arbitration.py)
 _ANCHORED_MS = const(4000)
 _DESCENT_MIN_MMPS = const(2000)  # a slower "descent" under a parachute is not one to predict from
+# the descent rate predicts the main's time only once it is steady (the parachute open, drag =
+# weight): the filter's acceleration small, and its velocity and the barometer's rate agreeing
+_STEADY_ACC_MMPS2 = const(2000)
+_STEADY_RATE_MMPS = const(3000)
 
 _RECORD_FORMAT = "<BBBiiiiiiiiiiiiiiiii"
 _RECORD_VERSION = const(1)
@@ -167,7 +172,7 @@ class FlightComputer:
         self.mode = (MODE_BARO if config.has_baro else 0) | (MODE_ACCEL if config.has_accel else 0)
         self.baro_excluded = False  # coast: the barometer disagrees with the accelerometer's bounds
         self._reanchor = False  # re-take the barometer's altitude at its next reading
-        self._good_agl_mm = 0  # descent: the last barometric reading that moved, and its rate
+        self._good_agl_mm = 0  # steady descent: the last barometric reading that moved, and its rate
         self._good_vel_mmps = 0
         self._good_ms = -1
         self._arb_ms = 0  # now_ms at the previous _arbitrate
@@ -268,12 +273,14 @@ class FlightComputer:
             # motor's tail-off, an ejection charge, a shock or a tumbling rocket (no staging)
             have &= HAVE_BARO
         if state >= FAST and not settling:
-            self.det.gate_alt_mm = _GATE_ALT_MM
-            self.det.gate_acc_mmps2 = _GATE_ACC_MMPS2
+            self.det.gate_alt_mm = GATE_ALT_MM
+            self.det.gate_acc_mmps2 = GATE_ACC_MMPS2
         else:
             self.det.gate_alt_mm = 0
             self.det.gate_acc_mmps2 = 0
         self._set_model(state)
+        # coasting: gravity and drag, never an upward push
+        self.det.acc_max_q4 = COAST_ACC_MAX_Q4 if coasting else RATE_LIMIT_Q4
         if resuming:
             self.det.model = MODEL_PLAIN  # after a reset the saved velocity may be old: re-learn
         if state >= DROGUE or resuming:
@@ -292,15 +299,16 @@ class FlightComputer:
                 apogee = self._accel_only_apogee()
         else:
             apogee = False
-        if coasting and kf.acc_q4 > _COAST_ACC_MAX_Q4:
-            kf.acc_q4 = _COAST_ACC_MAX_Q4  # coasting: gravity and drag, never an upward push
         self.agl_mm = (kf.alt_q4 >> 4) - self.ground_alt_mm
         self.vel_mmps = kf.vel_q4 >> 4
         if have & HAVE_BARO:
             self.baro_agl_mm = alt_mm - self.ground_alt_mm
-            if state == DROGUE and health.baro_moved:
+            if (state == DROGUE and health.baro_moved
+                    and -_STEADY_ACC_MMPS2 < kf.acc_q4 >> 4 < _STEADY_ACC_MMPS2
+                    and -_STEADY_RATE_MMPS < self.arb.baro_rate_mmps - self.vel_mmps < _STEADY_RATE_MMPS):
+                # the descent rate measured over the barometer's last half second
                 self._good_agl_mm = self.agl_mm
-                self._good_vel_mmps = self.vel_mmps
+                self._good_vel_mmps = self.arb.baro_rate_mmps
                 self._good_ms = self.now_ms
         self._update_averages(dt_us)
         self._update_boost(dt_us, acc_kin, have, clipped)
@@ -437,7 +445,8 @@ class FlightComputer:
         elif state == DROGUE:
             # main: proven, at or below the main altitude, descending, after the guard time
             if (self.flight_proven and self.agl_mm <= cfg.main_deploy_mm and self.vel_mmps < 0
-                    and self.now_ms - self.drogue_fired_ms >= cfg.main_guard_ms):
+                    and self.now_ms - self.drogue_fired_ms >= cfg.main_guard_ms
+                    and (self.mode & MODE_BARO or not cfg.has_baro)):
                 self._fire_main()
             elif self._main_due_without_baro():
                 self._fire_main()
