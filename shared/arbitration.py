@@ -70,6 +70,7 @@ class Arbitration:
         self.anchor_filter_mmps = 0  # see set_anchor
         self.anchor_track_mmps = 0
         self.anchor_margin_mmps = 0
+        self.anchored = False  # an anchor is set and the barometer has not agreed since
         self.baro_consistent = True
         self.baro_rate_mmps = 0  # last windowed barometric climb rate
         self._agree_ms = 0  # when the current run of agreeing windows began (-1: none)
@@ -208,6 +209,10 @@ class Arbitration:
             return
         diff = self.baro_rate_mmps - vel_sum // (_WINDOW_SLOTS + 1)
         allowed = self.margin_mmps + self.tol_mmps
+        if self.anchored:
+            # out of use since an anchor: the velocity is known better, from the filter's then
+            diff += self.anchor_track_mmps - self.anchor_filter_mmps
+            allowed = self.margin_mmps - self.anchor_margin_mmps + self.tol_mmps
         if -allowed <= diff <= allowed:
             if self._agree_ms < 0:
                 self._agree_ms = self._t[head]
@@ -215,6 +220,8 @@ class Arbitration:
         else:
             self._agree_ms = -1
             self.baro_consistent = False
+        if self.baro_consistent:
+            self.anchored = False
 
     def set_anchor(self):
         """The barometer is no longer usable: anchor the accelerometer-only velocity at the
@@ -228,6 +235,7 @@ class Arbitration:
         self.anchor_filter_mmps = self._fvel[i]
         self.anchor_track_mmps = self._vel[i]
         self.anchor_margin_mmps = self._margin[i]
+        self.anchored = True
 
     def anchored_upper_mmps(self):
         """Highest vertical velocity: the filter's at the anchor plus the track's change since,

@@ -234,9 +234,6 @@ class FlightComputer:
         self.events = 0
         health = self.health
         have = health.judge(accel_mmps2, have)
-        clipped = health.clipped
-        if clipped:
-            self.errors |= ERR_ACCEL_CLIPPED
         if not self.started:
             self.started = True
             self.det.start(self.pad.start(alt_mm, have), 0)
@@ -250,6 +247,9 @@ class FlightComputer:
         have = health.watch(self.now_ms, alt_mm, accel_mmps2, have, self.launched and state <= DROGUE)
         if health.changed:
             self.events |= EV_HEALTH
+        clipped = health.clipped
+        if clipped:
+            self.errors |= ERR_ACCEL_CLIPPED
         if state == PAD:
             pad = self.pad
             pad.update(self.now_ms, alt_mm, accel_mmps2, have, self.kf)

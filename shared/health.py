@@ -7,7 +7,8 @@ an accelerometer reading at its full scale under-reads, so the sample uses the b
 
 ``SensorHealth.watch()`` then judges each sensor over time (docs/DESIGN.md, "Sensor
 arbitration"): frozen (identical readings for ``baro_stuck_s`` in flight; for the accelerometer
-``accel_stuck_s`` while it reads more than 1 g, where noise and change are certain), lost (no
+``accel_stuck_s`` while it reads more than 1 g, where noise and change are certain; a reading
+held at the largest of the flight is its full scale: clipped, not frozen), lost (no
 fresh reading for ``sensor_timeout_s``), and single readings that are impossible (a barometric
 altitude outside the atmosphere a rocket flies in, or one that moved faster than
 ``baro_rate_max_mps`` from the previous reading). ``flags`` holds the HEALTH_* bits; a frozen or
@@ -84,6 +85,7 @@ class SensorHealth:
         self._acc_seen = False
         self._acc_fresh_ms = 0
         self._acc_run_ms = 0
+        self._acc_peak = 0  # the largest accelerometer reading in flight (mm/s^2)
 
     def watch(self, now_ms, alt_mm, accel_mmps2, have, in_flight):
         """Judge each sensor over time; returns ``have`` without the readings not to be used.
@@ -114,9 +116,19 @@ class SensorHealth:
             if now_ms - self._baro_fresh_ms >= self.timeout_ms:
                 flags |= HEALTH_BARO_LOST
         if self.has_accel:
-            if have & HAVE_ACCEL or self.clipped:
-                if accel_mmps2 != self._acc_last or not self._acc_seen or (
-                        -_ONE_G_MMPS2 < accel_mmps2 < _ONE_G_MMPS2):
+            if have & HAVE_ACCEL:
+                size = accel_mmps2 if accel_mmps2 >= 0 else -accel_mmps2
+                if in_flight and size > self._acc_peak:
+                    self._acc_peak = size
+                if (in_flight and accel_mmps2 == self._acc_last and size >= self._acc_peak
+                        and size > _ONE_G_MMPS2):
+                    # held at the largest reading of the flight: the part's full scale, whatever
+                    # the configured range (an unknown range, or a part that clips early)
+                    have &= HAVE_BARO
+                    self.accel_clipped += 1
+                    self.clipped = True
+                    self._acc_run_ms = now_ms
+                elif accel_mmps2 != self._acc_last or not self._acc_seen or size < _ONE_G_MMPS2:
                     self._acc_run_ms = now_ms
                 self._acc_last = accel_mmps2
                 self._acc_seen = True
