@@ -6,10 +6,11 @@ Portable and allocation-free per sample.
 Velocity bounds. From launch, the kinematic acceleration (specific force minus the pad's 1 g) is
 integrated into ``vel_mmps``. Its error is bounded: a bias left after pad calibration
 (``accel_bias_max_mps2``) errs by at most b per second; a tilt of at most ``accel_tilt_max_deg``
-between the sensing axis and the vertical hides at most (1 - cos tilt) of the specific force
-(tilted flight path) or of the kinematic acceleration (a board mounted off-axis, calibrated on the
-pad at g cos tilt). So ``margin_mmps`` grows each sample by
-(b + (1 - cos tilt) max(|specific force|, |kinematic acceleration|)) dt, and the true vertical
+between the sensing axis and the vertical hides (1 - cos tilt) of the specific force (a tilted
+flight path), and a board mounted off-axis (calibrated on the pad at g cos tilt) reads cos tilt of
+the true kinematic acceleration: both errors are within (1 / cos tilt - 1) of the reading. So
+``margin_mmps`` grows each sample by
+(b + (1 / cos tilt - 1) max(|specific force|, |kinematic acceleration|)) dt, and the true vertical
 velocity lies within ``vel_mmps`` +- ``margin_mmps``. A clipped reading under-reads: the lower
 bound stays valid, the upper one does not (``upper_valid``). A frozen or lost accelerometer
 (``shared/health.py``) ends the track (``valid``).
@@ -213,7 +214,8 @@ class Arbitration:
             # out of use since an anchor: the velocity is known better, from the filter's then
             diff += self.anchor_track_mmps - self.anchor_filter_mmps
             allowed = self.margin_mmps - self.anchor_margin_mmps + self.tol_mmps
-        if -allowed <= diff <= allowed:
+        if -allowed <= diff and (diff <= allowed or not self.upper_valid):
+            # (a clipped track under-reads: it bounds the velocity from below only)
             if self._agree_ms < 0:
                 self._agree_ms = self._t[head]
             self.baro_consistent = self.baro_consistent or self._t[head] - self._agree_ms >= _READMIT_MS

@@ -97,8 +97,10 @@ class Config:
         self.accel_limit_mmps2 = int(v["accel_range_g"] * G_MMPS2 * 98 // 100)  # 0 = no check
         self.baro_lag_ms = int(v["baro_lag_ms"])
         self.accel_bias_max_mmps2 = int(v["accel_bias_max_mps2"] * 1000)
-        # 1 - cos(tilt) in 1/1024: the fraction of a specific force a tilt hides from the vertical
-        self.tilt_loss_1024 = int(round((1 - math.cos(math.radians(v["accel_tilt_max_deg"]))) * 1024))
+        # 1/cos(tilt) - 1 in 1/1024: a tilted path hides 1 - cos of the specific force from the
+        # vertical, a tilted mount reads cos x the true force: both errors are within this
+        # fraction of the reading
+        self.tilt_loss_1024 = int(round((1 / math.cos(math.radians(v["accel_tilt_max_deg"])) - 1) * 1024))
         self.apogee_guard_mmps = int(v["apogee_guard_mps"] * 1000)
         self.baro_consistency_mmps = int(v["baro_consistency_mps"] * 1000)
         self.baro_stuck_ms = int(v["baro_stuck_s"] * 1000)

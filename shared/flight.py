@@ -127,6 +127,7 @@ _DESCENT_MIN_MMPS = const(2000)  # a slower "descent" under a parachute is not o
 # weight): the filter's acceleration small, and its velocity and the barometer's rate agreeing
 _STEADY_ACC_MMPS2 = const(2000)
 _STEADY_RATE_MMPS = const(3000)
+_STEADY_MIN_DS = const(20)  # 2 s of steady descent give its mean rate
 
 _RECORD_FORMAT = "<BBBiiiiiiiiiiiiiiiii"
 _RECORD_VERSION = const(1)
@@ -172,8 +173,9 @@ class FlightComputer:
         self.mode = (MODE_BARO if config.has_baro else 0) | (MODE_ACCEL if config.has_accel else 0)
         self.baro_excluded = False  # coast: the barometer disagrees with the accelerometer's bounds
         self._reanchor = False  # re-take the barometer's altitude at its next reading
-        self._good_agl_mm = 0  # steady descent: the last barometric reading that moved, and its rate
-        self._good_vel_mmps = 0
+        self._steady_agl_mm = 0  # steady descent: where it began, and its last barometric
+        self._steady_ms = -1  # reading that moved
+        self._good_agl_mm = 0
         self._good_ms = -1
         self._arb_ms = 0  # now_ms at the previous _arbitrate
         self._baro_coast_ms = 0  # how long the barometer has been in use in coast, without a break
@@ -306,15 +308,14 @@ class FlightComputer:
             if (state == DROGUE and health.baro_moved
                     and -_STEADY_ACC_MMPS2 < kf.acc_q4 >> 4 < _STEADY_ACC_MMPS2
                     and -_STEADY_RATE_MMPS < self.arb.baro_rate_mmps - self.vel_mmps < _STEADY_RATE_MMPS):
-                # the descent rate measured over the barometer's last half second
+                if self._steady_ms < 0:
+                    self._steady_ms = self.now_ms  # the steady descent began
+                    self._steady_agl_mm = self.agl_mm
                 self._good_agl_mm = self.agl_mm
-                self._good_vel_mmps = self.arb.baro_rate_mmps
                 self._good_ms = self.now_ms
         self._update_averages(dt_us)
         self._update_boost(dt_us, acc_kin, have, clipped)
         self._transition(apogee)
-        if self.events & EV_LAUNCH and self.mode & MODE_ACCEL:
-            self.arb.start(self.vel_mmps)
         self._check_proof(dt_us // 1000)
         self._pyro()
 
@@ -538,6 +539,8 @@ class FlightComputer:
         self._arb_ms = self.now_ms
         state = self.state
         coasting = state == FAST or state == COAST
+        if state == PAD and cfg.has_accel and not (acc_kin > cfg.launch_accel_mmps2 or clipped):
+            arb.start(0)  # at rest: the track starts again at the first boost reading
         if flags & HEALTH_ACCEL_BAD and arb.valid:
             arb.stop()  # its integral no longer bounds anything, for the rest of the flight
         if arb.valid:
@@ -597,12 +600,14 @@ class FlightComputer:
             return False
         if cfg.main_backup_ms and since_drogue_ms >= cfg.main_backup_ms:
             return True
-        if self._good_ms < 0 or self._good_vel_mmps > -_DESCENT_MIN_MMPS:
-            return False  # no descent seen: no prediction
-        drop_cm = (self._good_agl_mm - cfg.main_deploy_mm) // 10
-        # time to fall drop_cm at the descent rate, in 1/100 s (cm and cm/s: within 31 bits)
-        return drop_cm <= 0 or self.now_ms - self._good_ms >= drop_cm * 100 // (
-            -self._good_vel_mmps // 10) * 10
+        # the mean rate of the steady descent seen (decimetres and tenths of a second: the
+        # product below stays within 31 bits for 5 km and 600 s)
+        fell_dm = (self._steady_agl_mm - self._good_agl_mm) // 100
+        took_ds = (self._good_ms - self._steady_ms) // 100
+        if self._steady_ms < 0 or took_ds < _STEADY_MIN_DS or fell_dm * 10 < took_ds * _DESCENT_MIN_MMPS // 1000:
+            return False  # no steady descent seen: no prediction
+        drop_dm = (self._good_agl_mm - cfg.main_deploy_mm) // 100
+        return drop_dm <= 0 or self.now_ms - self._good_ms >= drop_dm * took_ds // fell_dm * 100
 
     # Resume after a reset in flight (docs/DESIGN.md D3). The device writes this record to
     # memory that survives a reset (RTC memory, or a small flash record) at launch and at every
