@@ -44,7 +44,7 @@ _READMIT_MS = const(500)
 _ACC_LIMIT = const(0xFFFFF)  # 2**20 - 1 mm/s^2 (107 g): keeps acc x dt_ms (<= 1000) in 31 bits
 _DT_LIMIT_MS = const(1000)
 _SLOT_STEP_LIMIT_MM = const(0xFFFFF)  # 2**20 - 1 mm (1 km) from the previous slot: sums in 31 bits
-_VEL_LIMIT_MMPS = const(0x3FFFFF)  # 2**22 - 1 mm/s (4 km/s): a slot's sum of velocities in 31 bits
+_VEL_LIMIT_MMPS = const(0x3FFFFF)  # 2**22 - 1 mm/s (4 km/s)
 
 
 def _clamp(x, limit):
@@ -75,9 +75,9 @@ class Arbitration:
         self.baro_consistent = True
         self.baro_rate_mmps = 0  # last windowed barometric climb rate
         self._agree_ms = 0  # when the current run of agreeing windows began (-1: none)
-        # history of slots: barometric altitude mean (mm), track velocity mean (mm/s), mean time
-        # (ms), no barometric reading (0/1), and at the slot's end the filter's velocity (mm/s)
-        # and the track's margin (mm/s)
+        # history of slots: barometric altitude mean (mm), middle time (ms), no barometric reading
+        # (0/1), and at the slot's end the track's velocity, the filter's velocity and the
+        # track's margin (mm/s)
         self._alt = array("i", [0] * _HISTORY_SLOTS)
         self._vel = array("i", [0] * _HISTORY_SLOTS)
         self._t = array("i", [0] * _HISTORY_SLOTS)
@@ -90,9 +90,6 @@ class Arbitration:
         self._alt_ref = 0  # the previous slot's mean: this slot's sums are offsets from it
         self._alt_sum = 0
         self._alt_n = 0
-        self._vel_sum = 0
-        self._vel_n = 0
-        self._t_sum = 0
 
     def start(self, vel_mmps):
         """Launch: the track starts from the filter's velocity (it follows the accelerometer in
@@ -111,26 +108,29 @@ class Arbitration:
 
     def integrate(self, dt_ms, acc_kin_mmps2, specific_mmps2, clipped):
         """Add one accelerometer reading (kinematic and specific force, mm/s^2) held for dt_ms."""
-        if not self.valid:
-            return
         if dt_ms > _DT_LIMIT_MS:
             dt_ms = _DT_LIMIT_MS
-        acc = _clamp(acc_kin_mmps2, _ACC_LIMIT)
-        spec = _clamp(specific_mmps2, _ACC_LIMIT)
+        acc = acc_kin_mmps2
+        if acc > _ACC_LIMIT:
+            acc = _ACC_LIMIT
+        elif acc < -_ACC_LIMIT:
+            acc = -_ACC_LIMIT
+        size = acc if acc >= 0 else -acc
+        spec = specific_mmps2 if specific_mmps2 >= 0 else -specific_mmps2
+        if spec > size:
+            size = spec if spec < _ACC_LIMIT else _ACC_LIMIT
         if clipped:
             self.upper_valid = False
         um = self._vel_um + acc * dt_ms
-        self.vel_mmps = _clamp(self.vel_mmps + um // 1000, _VEL_LIMIT_MMPS)
+        vel = self.vel_mmps + um // 1000
+        if vel > _VEL_LIMIT_MMPS:  # (a reading stuck at 100 g on the pad for an hour)
+            vel = _VEL_LIMIT_MMPS
+        elif vel < -_VEL_LIMIT_MMPS:
+            vel = -_VEL_LIMIT_MMPS
+        self.vel_mmps = vel
         self._vel_um = um % 1000
-        if spec < 0:
-            spec = -spec
-        if acc < 0:
-            acc = -acc
-        if acc > spec:
-            spec = acc
-        grow = (self.bias_max_mmps2 + (self.tilt_loss_1024 * spec >> 10)) * dt_ms
-        um = self._margin_um + grow
-        self.margin_mmps = _clamp(self.margin_mmps + um // 1000, _VEL_LIMIT_MMPS)
+        um = self._margin_um + (self.bias_max_mmps2 + (self.tilt_loss_1024 * size >> 10)) * dt_ms
+        self.margin_mmps += um // 1000
         self._margin_um = um % 1000
 
     def integrate_missing(self, dt_ms):
@@ -151,17 +151,20 @@ class Arbitration:
         return self.vel_mmps + self.margin_mmps
 
     def add_baro(self, now_ms, alt_mm, fresh, filter_vel_mmps):
-        """Average a barometric reading (``fresh``) into the current slot with the track's
-        velocity; on a full slot record the history and judge the barometer against the
-        accelerometer's bounds."""
+        """Average a barometric reading (``fresh``) into the current slot; when the slot is full,
+        record it in the history (with the track's velocity, the filter's and the margin at its
+        end: half a slot later than the readings' mean, 1 m/s at 4 g) and judge the barometer
+        against the accelerometer's bounds."""
         if fresh:
             if self._alt_n == 0 and self._slots == 0:
                 self._alt_ref = alt_mm
-            self._alt_sum += _clamp(alt_mm - self._alt_ref, _SLOT_STEP_LIMIT_MM)
+            d = alt_mm - self._alt_ref
+            if d > _SLOT_STEP_LIMIT_MM:
+                d = _SLOT_STEP_LIMIT_MM
+            elif d < -_SLOT_STEP_LIMIT_MM:
+                d = -_SLOT_STEP_LIMIT_MM
+            self._alt_sum += d
             self._alt_n += 1
-        self._vel_sum += self.vel_mmps
-        self._vel_n += 1
-        self._t_sum += now_ms - self._slot_start_ms
         if now_ms - self._slot_start_ms < _SLOT_MS:
             return
         head = self._head + 1
@@ -175,12 +178,12 @@ class Arbitration:
             alt = self._alt_ref  # no reading in this slot: windows over it are not judged
             self._empty[head] = 1
         self._alt[head] = alt
-        self._vel[head] = self._vel_sum // self._vel_n
-        self._t[head] = self._slot_start_ms + self._t_sum // self._vel_n
+        self._vel[head] = self.vel_mmps
+        self._t[head] = (self._slot_start_ms + now_ms) >> 1
         self._fvel[head] = filter_vel_mmps
         self._margin[head] = self.margin_mmps
         self._alt_ref = alt
-        self._alt_sum = self._alt_n = self._vel_sum = self._vel_n = self._t_sum = 0
+        self._alt_sum = self._alt_n = 0
         self._slot_start_ms = now_ms
         if self._slots < _HISTORY_SLOTS:
             self._slots += 1

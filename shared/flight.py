@@ -543,7 +543,7 @@ class FlightComputer:
             arb.start(0)  # at rest: the track starts again at the first boost reading
         if flags & HEALTH_ACCEL_BAD and arb.valid:
             arb.stop()  # its integral no longer bounds anything, for the rest of the flight
-        if arb.valid:
+        if arb.valid and state < DROGUE:  # the track serves the ascent's decisions
             if coasting and acc_kin > -G_MMPS2 // 2 and not clipped:
                 arb.integrate_missing(dt_ms)  # not drag: a shock or an ejection (see step)
             elif have & HAVE_ACCEL or clipped:
