@@ -31,7 +31,7 @@ except ImportError:
     def const(x):
         return x
 
-from shared.config import G_MMPS2
+from shared.physics import G_MMPS2
 
 _SLOT_MS = const(50)  # averaging slot: 5 readings at 100 Hz, 1 at 20 Hz
 _WINDOW_SLOTS = const(10)  # 0.5 s window: a 200 m transient reads as 400 m/s, 6 m noise as ~8 m/s
