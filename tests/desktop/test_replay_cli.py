@@ -22,9 +22,12 @@ def test_text_output_lists_events(capsys):
 def test_json_output_and_main_altitude_override(capsys):
     assert main(["replay", str(FLIGHT), "--json", "--main-altitude", "300"]) == 0
     data = json.loads(capsys.readouterr().out)
-    names = [e["event"] for e in data["events"]]
+    names = [e["event"] for e in data["events"] if e["event"] not in ("health", "mode")]
     assert names == ["launch", "burnout", "apogee", "drogue", "main"]
     assert set(data["events"][0]) == {"event", "time_s", "altitude_m"}
+    # the barometer excluded after burnout while it catches up (docs/DESIGN.md D13), then back
+    modes = [e["detail"] for e in data["events"] if e["event"] == "mode"]
+    assert modes == ["accel only (barometer excluded)", "both"]
     main_ev = data["events"][-1]
     assert 290 <= main_ev["altitude_m"] <= 300 and data["config"]["main_deploy_m"] == 300
 
