@@ -25,17 +25,23 @@ Transitions (``_transition``), each branch opening with its rule:
 | | | and speed); never with ERR_ORIENTATION or ERR_BARO_ERRATIC | `launch_accel_time_s` |
 | boost..coast | pad | not proven within 10 s of launch, still near the pad | `proof_climb_m` |
 | boost | fast/coast | filtered acceleration below -2.5 m/s^2, or the timeout | `max_boost_s` |
-| fast | coast | estimated speed at or below the Mach lockout | `mach_lockout_mps` |
+| fast | coast | estimated speed at or below the Mach lockout, and the time | `mach_lockout_mps`, |
+| | | lockout after launch over | `mach_lockout_s` |
 | coast | fast | estimated speed above the Mach lockout | `mach_lockout_mps` |
 | boost..coast | drogue | proven, and apogee (+ delay) or the backup timer | `apogee_delay_s`, |
 | | | | `backup_drogue_s` |
 | drogue | main | proven, at or below the main altitude, descending, the | `main_deploy_m`, |
-| | | guard time after the drogue | `main_guard_s` |
+| | | guard time after the drogue (barometer usable) | `main_guard_s` |
+| drogue | main | barometer lost or frozen: the last steady descent reaches | `main_backup_s` |
+| | | the main altitude, or main_backup_s after the drogue | |
 | main | landed | altitude within a band over a window | `landed_alt_m` |
 
 Apogee itself is declared by the filter's rule only while ``_apogee_enabled()``: coast, proven,
-above the proof climb, after the lockout, and an averaged deceleration between
-``coast_decel_mps2`` and 10 g.
+above the proof climb, after the lockout, an averaged deceleration between ``coast_decel_mps2``
+and 10 g, and the accelerometer's lowest possible velocity at or below ``apogee_guard_mps``.
+Without a usable barometer (``mode`` accel only) apogee is the accelerometer's highest possible
+velocity reaching zero (``_accel_only_apogee``). The decision mode and the barometer's
+exclusion come from ``_arbitrate`` (docs/DESIGN.md D13).
 
 Safety (docs/DESIGN.md D1): every firing path (apogee, apogee delay, backup timer,
 main) requires ``flight_proven``: a boost sustained for ``launch_accel_time_s`` *and* a climb of
