@@ -545,7 +545,8 @@ class FlightComputer:
         self._arb_ms = self.now_ms
         state = self.state
         coasting = state == FAST or state == COAST
-        if state == PAD and cfg.has_accel and not (acc_kin > cfg.launch_accel_mmps2 or clipped):
+        if (state == PAD and (arb.margin_mmps or not arb.valid) and cfg.has_accel
+                and not (acc_kin > cfg.launch_accel_mmps2 or clipped)):
             arb.start(0)  # at rest: the track starts again at the first boost reading
         if flags & HEALTH_ACCEL_BAD and arb.valid:
             arb.stop()  # its integral no longer bounds anything, for the rest of the flight
