@@ -64,6 +64,7 @@ from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
     ERR_ORIENTATION,
     ERR_PAD_BARO_STEP,
     G_MMPS2,
+    PAD_BARO_JUMP_MM,
     PAD_ERRORS,
     PadCalibration,
 )
@@ -113,6 +114,15 @@ _RECORD_VERSION = const(1)
 STATE_RECORD_SIZE = const(71)  # struct.calcsize(_RECORD_FORMAT)
 _RESUME_SETTLE_MS = const(2000)
 _FALSE_LAUNCH_MS = const(10000)  # a launch not proven within this, near the pad, was not one
+# The accelerometer's own account of the boost (proof of flight): the kinematic acceleration is
+# integrated from the first sample of a push above this on the pad (or from launch), signed, until
+# proof. Bounds keep every product inside 31 bits: |a| < 2**20 mm/s^2 (107 g), dt <= 1000 ms,
+# |v| < 2**20 mm/s (1 km/s: the proof speed is tens of m/s).
+_PUSH_MMPS2 = const(4903)  # 0.5 g: a motor lighting; well above pad noise and the 1 g calibration error
+_INT_LIMIT = const(0xFFFFF)
+# Both sensors: during the proof hold the barometer's climb and the accelerometer's integrated
+# height agree within 10 m + 1/4 of the climb (tilt up to 40 degrees, barometer lag, calibration).
+_AGREE_MM = const(10000)
 
 # Error flags in ``errors`` (ERR_ORIENTATION, ERR_PAD_BARO_STEP and ERR_BARO_ERRATIC come from
 # shared/padcal.py).
@@ -159,6 +169,16 @@ class FlightComputer:
         self.flight_proven = False
         self.climb_ms = 0  # time above proof_climb_m, less the time below since (barometer)
         self.launch_ms = 0
+        self.launch_by_height = False  # launched on height and speed, not on the boost
+        self.acc_dv_mmps = 0  # speed integrated from the accelerometer since the push began
+        self.acc_dv_max_mmps = 0
+        self.acc_h_mm = 0  # height integrated from it
+        self.acc_meas_avg = 0  # averaged measured kinematic acceleration, mm/s^2 (apogee gate)
+        # the accelerometer itself has shown a coast (averaged at or below -coast_decel_mps2 after
+        # launch): a rocket standing on the pad reads +1 g and never does; once seen, the board's
+        # later shocks (ejection, a tumble) do not undo it
+        self.coast_measured = False
+        self.acc_account = True  # False after a resume: the integrals above restarted mid-flight
         self.burnout_ms = 0
         self.max_agl_mm = 0
         self.max_vel_mmps = 0
@@ -199,8 +219,9 @@ class FlightComputer:
         cfg = self.cfg
         self.events = 0
         health = self.health
-        have = health.judge(accel_mmps2, have)
+        have = health.judge(alt_mm, accel_mmps2, have)
         clipped = health.clipped
+        measured_acc = have & HAVE_ACCEL  # a usable reading, before the phase's own choice
         if clipped:
             self.errors |= ERR_ACCEL_CLIPPED
         if not self.started:
@@ -212,6 +233,7 @@ class FlightComputer:
             total = self._us_rem + dt_us
             self.now_ms += total // 1000
             self._us_rem = total % 1000
+        health.age(dt_us // 1000, have)
         state = self.state
         if state == PAD:
             pad = self.pad
@@ -236,6 +258,9 @@ class FlightComputer:
         if state >= FAST and not settling:
             self.det.gate_alt_mm = _GATE_ALT_MM
             self.det.gate_acc_mmps2 = _GATE_ACC_MMPS2
+        elif state == BOOST and not resuming:
+            self.det.gate_alt_mm = cfg.boost_gate_mm  # a wide gate from the first sample of boost
+            self.det.gate_acc_mmps2 = 0
         else:
             self.det.gate_alt_mm = 0
             self.det.gate_acc_mmps2 = 0
@@ -263,6 +288,12 @@ class FlightComputer:
             self.baro_agl_mm = alt_mm - self.ground_alt_mm
         self._update_averages(dt_us)
         self._update_boost(dt_us, acc_kin, have, clipped)
+        if measured_acc or clipped:
+            self._integrate_accel(dt_us // 1000, acc_kin)
+        if measured_acc:
+            self.acc_meas_avg = _ema(self.acc_meas_avg, acc_kin, dt_us // 1000, _DECEL_TAU_MS)
+            if state != PAD and self.acc_meas_avg <= -cfg.coast_decel_mmps2:
+                self.coast_measured = True
         self._transition(apogee)
         self._check_proof(dt_us // 1000)
         self._pyro()
@@ -302,7 +333,7 @@ class FlightComputer:
             self.det.model = MODEL_PLAIN
         elif state == COAST:
             vel = self.kf.vel_q4 >> 4
-            if -_LATE_COAST_MMPS < vel < _LATE_COAST_MMPS and self.cfg.has_baro:
+            if -_LATE_COAST_MMPS < vel < _LATE_COAST_MMPS and self.health.baro_ok:
                 self.det.model = MODEL_GRAVITY
             else:
                 self.det.model = MODEL_BIAS
@@ -315,7 +346,8 @@ class FlightComputer:
                 and self.apogee_ms < 0 and self.now_ms >= self.settle_until_ms
                 and self.now_ms - self.launch_ms >= cfg.apogee_lockout_ms
                 and self.agl_mm >= cfg.proof_climb_mm
-                and cfg.coast_decel_mmps2 << 4 <= -self.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4)
+                and cfg.coast_decel_mmps2 << 4 <= -self.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
+                and (self.coast_measured or not self.health.accel_ok))
 
     def _update_averages(self, dt_us):
         self.acc_avg_q4 = _ema(self.acc_avg_q4, self.kf.acc_q4, dt_us // 1000, _DECEL_TAU_MS)
@@ -331,8 +363,42 @@ class FlightComputer:
         else:
             self.boost_ms = 0
 
+    def _integrate_accel(self, dt_ms, acc_kin):
+        """The accelerometer's own account of the boost, until proof: speed and height integrated
+        from the first sample of a push on the pad (reset while the pad is quiet), signed."""
+        if self.flight_proven:
+            return
+        if self.state == PAD and acc_kin <= _PUSH_MMPS2:
+            self.acc_dv_mmps = self.acc_dv_max_mmps = self.acc_h_mm = 0
+            return
+        if dt_ms > 1000:
+            dt_ms = 1000
+        if acc_kin > _INT_LIMIT:
+            acc_kin = _INT_LIMIT
+        elif acc_kin < -_INT_LIMIT:
+            acc_kin = -_INT_LIMIT
+        dv = self.acc_dv_mmps + acc_kin * dt_ms // 1000
+        if dv > _INT_LIMIT:
+            dv = _INT_LIMIT
+        elif dv < -_INT_LIMIT:
+            dv = -_INT_LIMIT
+        self.acc_dv_mmps = dv
+        if dv > self.acc_dv_max_mmps:
+            self.acc_dv_max_mmps = dv
+        h = self.acc_h_mm + dv * dt_ms // 1000
+        if -_INT_LIMIT << 8 < h < _INT_LIMIT << 8:
+            self.acc_h_mm = h
+
     def _check_proof(self, dt_ms):
-        """flight_proven, once true, stays true (every firing path requires it)."""
+        """flight_proven, once true, stays true (every firing path requires it).
+
+        Both sensors: the barometer's own reading holds proof_climb_m for a second, and the
+        accelerometer's account of the boost agrees: its integrated speed reached proof_speed_mps
+        and its integrated height proof_climb_m (a shove or a knock on the rail gives a few m/s; a
+        pressure offset, a gust or a hand on the port moves no accelerometer). Barometer only (by
+        configuration, or the accelerometer lost before proof): proof_baro_climb_m held, above any
+        pad pressure disturbance, at proof_speed_mps. Accelerometer only (or the barometer lost):
+        the filter's climb held, at proof_speed_mps, after a boost of 0.3 s."""
         if self.agl_mm > self.max_agl_mm:
             self.max_agl_mm = self.agl_mm
         if self.vel_mmps > self.max_vel_mmps:
@@ -340,23 +406,37 @@ class FlightComputer:
         if self.flight_proven or not self.launched:
             return
         cfg = self.cfg
-        # the barometer's own reading, not the filter (a stuck accelerometer drags the filter up)
-        climb_mm = self.baro_agl_mm if cfg.has_baro else self.agl_mm
-        if climb_mm >= cfg.proof_climb_mm:
+        baro_ok = self.health.baro_ok
+        accel_ok = self.health.accel_ok and self.acc_account
+        if baro_ok:
+            # the barometer's own reading, not the filter (a stuck accelerometer drags it up)
+            climb_mm = self.baro_agl_mm
+            line_mm = cfg.proof_climb_mm if accel_ok else cfg.proof_baro_climb_mm
+        else:
+            climb_mm = self.agl_mm
+            line_mm = cfg.proof_climb_mm
+        agree = True
+        if baro_ok and accel_ok:
+            diff = climb_mm - self.acc_h_mm
+            agree = -_AGREE_MM - (climb_mm >> 2) <= diff <= _AGREE_MM + (climb_mm >> 2)
+        if climb_mm >= line_mm and agree:
             self.climb_ms += dt_ms
         elif self.climb_ms > dt_ms:
             self.climb_ms -= dt_ms  # a noisy reading below the line costs only its own time
         else:
             self.climb_ms = 0
         # a climb that lasts: a pressure transient (ejection, venting, a knock) decays in tenths
-        # of a second, a rocket stays above a few tens of metres for seconds. Without one of the
-        # sensors the climb must also have been fast (the barometer alone cannot tell a boost;
-        # the accelerometer alone measures the climb only by integration).
+        # of a second, a rocket stays above a few tens of metres for seconds
         proven = self.climb_ms >= _PROOF_HOLD_MS
-        if not (cfg.has_baro and cfg.has_accel):
+        if baro_ok and accel_ok:
+            proven = proven and self.acc_dv_max_mmps >= cfg.proof_speed_mmps
+        elif baro_ok:
             proven = proven and self.max_vel_mmps >= cfg.proof_speed_mmps
-        if not cfg.has_baro:
-            proven = proven and self.boost_max_ms >= _ACCEL_ONLY_BOOST_MS
+        elif accel_ok:
+            proven = (proven and self.max_vel_mmps >= cfg.proof_speed_mmps
+                      and self.boost_max_ms >= _ACCEL_ONLY_BOOST_MS)
+        else:
+            proven = False
         self.flight_proven = proven
 
     def _transition(self, apogee):
@@ -368,15 +448,13 @@ class FlightComputer:
             # refused while the board is not upright or the barometer is erratic
             if self.errors & (ERR_ORIENTATION | ERR_BARO_ERRATIC):
                 return
-            if cfg.has_accel:
-                launch = self.boost_ms >= cfg.launch_accel_ms
-            else:
-                launch = self.agl_mm >= cfg.proof_climb_mm and self.vel_mmps >= cfg.proof_speed_mmps
-            if launch:
-                self.launched = True
-                self.launch_ms = self.now_ms
-                self.state = BOOST
-                self.events |= EV_LAUNCH
+            # or the height and speed (low thrust-to-weight, barometer-only boards)
+            boost = cfg.has_accel and self.boost_ms >= cfg.launch_accel_ms
+            # (with an accelerometer, while it pushes: its integral reached launch_speed_mps)
+            height = (self.agl_mm >= cfg.launch_height_mm and self.vel_mmps >= cfg.launch_speed_mmps
+                      and (not self.health.accel_ok or self.acc_dv_mmps >= cfg.launch_speed_mmps))
+            if boost or height:
+                self._launch(not boost)
         elif state <= COAST:
             # ascent: back to the pad without proof (_false_launch); burnout; the Mach lockout;
             # then apogee and the drogue
@@ -396,9 +474,18 @@ class FlightComputer:
                 self.state = FAST
             self._drogue_rule(apogee)
         elif state == DROGUE:
-            # main: proven, at or below the main altitude, descending, after the guard time
-            if (self.flight_proven and self.agl_mm <= cfg.main_deploy_mm and self.vel_mmps < 0
-                    and self.now_ms - self.drogue_fired_ms >= cfg.main_guard_ms):
+            # main: proven, after the guard time; at or below the main altitude descending when the
+            # flight rose main_margin_m above it; without a barometer main_delay_s after the drogue
+            since_ms = self.now_ms - self.drogue_fired_ms
+            if not self.flight_proven or since_ms < cfg.main_guard_ms:
+                main = False
+            elif not self.health.baro_ok:
+                main = since_ms >= cfg.main_delay_ms
+            elif self.max_agl_mm >= cfg.main_deploy_mm + cfg.main_margin_mm:
+                main = self.agl_mm <= cfg.main_deploy_mm and self.vel_mmps < 0
+            else:
+                main = True  # it never rose clear of the main altitude: do not land on the drogue
+            if main:
                 self.main_fired_ms = self.now_ms
                 self._main_off_ms = self.now_ms + cfg.pulse_ms
                 self.pyro_main = True
@@ -407,6 +494,21 @@ class FlightComputer:
             self._landing_rule()
         elif state == MAIN:
             self._landing_rule()
+
+    def _launch(self, by_height):
+        """Leave the pad. The ground is the reference from the samples ending at least 0.2 s
+        before (a bad reading on this sample re-based it: the filter goes back with it)."""
+        self.launched = True
+        self.launch_by_height = by_height
+        self.launch_ms = self.now_ms
+        self.state = BOOST
+        self.events |= EV_LAUNCH
+        ground = self.pad.launch_ground()
+        jump = self.ground_alt_mm - ground
+        if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
+            self.kf.set_altitude(ground)
+        self.ground_alt_mm = ground
+        self.agl_mm = (self.kf.alt_q4 >> 4) - ground
 
     def _drogue_rule(self, apogee):
         """Ascent: record apogee; fire the drogue (proven) when its delay is over, or on the
@@ -423,23 +525,31 @@ class FlightComputer:
                 self._fire_drogue()
 
     def _false_launch(self):
-        """A launch that has not proven a flight within _FALSE_LAUNCH_MS while the rocket is still
-        near the pad (a push on the rail, a drop) goes back to pad mode, with its calibration."""
+        """A launch that has not proven a flight within _FALSE_LAUNCH_MS while the rocket is near
+        the pad (a push on the rail, a drop) or at rest (a pressure offset that stays: the av-bay
+        sealed) goes back to pad mode, with its calibration. An unproven flight fires nothing, so
+        going back to the pad in the air costs nothing."""
         cfg = self.cfg
         if self.flight_proven or self.now_ms - self.launch_ms < _FALSE_LAUNCH_MS:
             return False
-        if cfg.has_baro:
+        baro_ok = self.health.baro_ok
+        if baro_ok:
             near = -cfg.proof_climb_mm < self.baro_agl_mm < cfg.proof_climb_mm
         else:
             near = -cfg.proof_speed_mmps < self.vel_mmps < cfg.proof_speed_mmps
-        if not near:
+        # at rest: no climb, and (with an accelerometer) standing at 1 g, not coasting at 0 g
+        at_rest = -cfg.launch_speed_mmps < self.vel_mmps < cfg.launch_speed_mmps and (
+            not self.health.accel_ok or -_PUSH_MMPS2 < self.acc_meas_avg < _PUSH_MMPS2)
+        if not (near or at_rest):
             return False
         self.state = PAD
         self.launched = False
         self.boost_ms = self.boost_max_ms = self.climb_ms = 0
         self.max_agl_mm = self.max_vel_mmps = 0
+        self.acc_dv_mmps = self.acc_dv_max_mmps = self.acc_h_mm = 0
+        self.coast_measured = False
         self.errors |= ERR_FALSE_LAUNCH
-        self.kf.reset(self.ground_alt_mm + self.baro_agl_mm if cfg.has_baro else self.kf.alt_q4 >> 4)
+        self.kf.reset(self.ground_alt_mm + self.baro_agl_mm if baro_ok else self.kf.alt_q4 >> 4)
         return True
 
     def _fire_drogue(self):
@@ -516,6 +626,7 @@ class FlightComputer:
         kf.alt_q4, kf.vel_q4, kf.acc_q4, kf.bias_q4 = alt_q4, vel_q4, acc_q4, bias_q4
         self.det.dt_us = -1
         self.settle_until_ms = self.now_ms + _RESUME_SETTLE_MS
+        self.acc_account = False  # proof, if still owed, from one sensor alone
         self._resume_pending = True
         self._land_start_ms = self.now_ms
         self._land_min_mm = self._land_max_mm = (alt_q4 >> 4) - self.ground_alt_mm
