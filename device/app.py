@@ -31,7 +31,7 @@ from device import flightlog, status
 from device.board import BoardError, Hardware
 from device.flightloop import FlightLoop, collect
 from device.resume import PHASE_FLIGHT, PHASE_LANDED, ResumeStore
-from shared.config import ConfigError, load_config, load_config_file
+from shared.config import ConfigError, ConfigFileMissing, load_config, load_config_file
 from shared.flight import STATE_NAMES, FlightComputer
 from shared.physics import G_MMPS2
 
@@ -62,17 +62,19 @@ class App:
         self.board = boardmod.load(board_path)  # BoardError: main() prints it and stops
         try:
             self.config = load_config_file(config_path)
+        except ConfigFileMissing:
+            self.config = load_config({})
+            print("config: %s not found, using the defaults" % config_path)
         except ConfigError as exc:
-            if "cannot read" in str(exc):
-                self.config = load_config({})
-                print("config: %s not found, using the defaults" % config_path)
-            else:
-                self.config = load_config({})
-                self.errors.append((status.ERR_FILES, str(exc)))
+            self.config = load_config({})
+            self.errors.append((status.ERR_FILES, str(exc)))
         try:
             boardmod.check_with_config(self.board, self.config)
         except BoardError as exc:
             self.errors.append((status.ERR_FILES, str(exc)))
+        problem = boardmod.check_pyro_pins_file(self.board)
+        if problem:  # boot.py drove these pins low at reset: they must be the pyro pins
+            self.errors.append((status.ERR_FILES, problem))
         self.hw = Hardware(self.board, self.machine)
         self.errors += self.hw.errors
         self.resume = ResumeStore(self.machine)
@@ -294,29 +296,45 @@ class App:
     # -- flight mode ---------------------------------------------------------------------------------
 
     def fly(self, how, resume_rec, landed_beep_ms, fc=None):
+        """Flight mode. The watchdog first (nothing after it may leave an armed board without
+        one); on the pad ``armed.flag`` written and read back (else refused: after a reset the
+        board would not know it was armed); the log is best-effort: a flight, and above all a
+        resumed one, goes on without it."""
         hw = self.hw
         cfg = self.config
         logfile = None
         micropython.kbd_intr(-1)
         try:
-            try:
-                logbuf = flightlog.LogBuffer(self.board["log_ram_kb"] * 1024)
-                logbuf.max_blocks = self.board["log_max_kb"] * 1024 // flightlog.BLOCK_SIZE
-                logfile = self.open_log(how, resume_rec)
-            except (MemoryError, OSError) as exc:
-                self.errors = [(status.ERR_LOG, "log: %s (lower log_ram_kb, free flash)" % exc)]
-                self.say("not arming: error 5: %s" % self.errors[0][1])
+            hw.start_watchdog()
+            if resume_rec is None and not self.resume.set_armed_flag(how):
+                self.errors = [(status.ERR_FILES, "armed.flag cannot be written and read back")]
+                self.say("not arming: error %d: %s" % (status.ERR_FILES, self.errors[0][1]))
                 self.show_errors()
                 return "refused"
-            if resume_rec is None:
-                self.resume.set_armed_flag(how)
+            try:
+                logbuf = flightlog.LogBuffer(self.board["log_ram_kb"] * 1024)
+            except MemoryError as exc:
+                if resume_rec is None:
+                    self.resume.clear_armed_flag()
+                    self.errors = [(status.ERR_LOG, "log: %s (lower log_ram_kb)" % exc)]
+                    self.say("not arming: error 5: %s" % self.errors[0][1])
+                    self.show_errors()
+                    return "refused"
+                collect()  # resumed: fly with the smallest buffer the pad logic needs
+                logbuf = flightlog.LogBuffer(
+                    flightlog.pad_blocks_needed(self.board["sample_hz"]) * flightlog.BLOCK_SIZE)
+            logbuf.max_blocks = self.board["log_max_kb"] * 1024 // flightlog.BLOCK_SIZE
+            try:
+                logfile = self.open_log(how, resume_rec)
+            except OSError as exc:
+                self.errors.append((status.ERR_LOG, "log: %s: flying without a log" % exc))
+                self.say("error 5: log %s cannot be opened (%s): flying without a log" % (self.log_path, exc))
             fc_start = 0
             if resume_rec is not None:
                 fc_start = resume_rec["fc_start"]
                 logbuf.sample = resume_rec["sample"]
                 logbuf.write_text(logfile, flightlog.KIND_NOTE, json.dumps(
                     {"resumed": True, "sample": resume_rec["sample"], "state": resume_rec["state"]}))
-            hw.start_watchdog()
             loop = FlightLoop(hw, cfg, logbuf, logfile, self.resume, fc, fc_start)
             if resume_rec is not None:
                 logbuf.keep_from = resume_rec["sample"]
@@ -333,8 +351,9 @@ class App:
             summary["armed_by"] = how
             self.last_summary = summary
             logbuf.write_text(logfile, flightlog.KIND_SUMMARY, json.dumps(summary))
-            logfile.close()
-            logfile = None
+            if logfile is not None:
+                logfile.close()
+                logfile = None
             if reason == "landed":
                 self.resume.save(PHASE_LANDED, loop.fc, logbuf.sample, loop.fc_start)
             else:

@@ -250,6 +250,25 @@ def pyro_pins_text(board):
     return " ".join([str(board["pyro"][ch]["pin"]) for ch in CHANNELS]) + "\n"
 
 
+def check_pyro_pins_file(board, path="pyro_pins.txt"):
+    """None when ``path`` names exactly the board's pyro pins, else the problem in one line (the
+    app refuses to arm: boot.py drove the pins of that file low at reset, not necessarily these)."""
+    try:
+        with open(path) as f:
+            text = f.read()
+    except OSError:
+        return "board: %s is missing; run tools/deploy.py" % path
+    try:
+        pins = sorted([int(p) for p in text.split()])
+    except ValueError:
+        return "board: %s is not a list of pin numbers: %r" % (path, text[:40])
+    want = sorted([board["pyro"][ch]["pin"] for ch in CHANNELS])
+    if pins != want:
+        return "board: %s names pins %s, board.json's pyro pins are %s; run tools/deploy.py" % (
+            path, pins, want)
+    return None
+
+
 # -- hardware (MicroPython) ----------------------------------------------------------------------
 
 HAVE_BARO = const(1)  # as shared.detector

@@ -72,11 +72,17 @@ class ResumeStore:
     # -- the armed flag (pad only) -----------------------------------------------------------------
 
     def set_armed_flag(self, text="armed"):
+        """Write the flag and read it back; False (counted) when either fails."""
         try:
             with open(FLAG_FILE, "w") as f:
                 f.write(text)
+            with open(FLAG_FILE) as f:
+                if f.read() == text:
+                    return True
         except OSError:
-            self.failures += 1
+            pass
+        self.failures += 1
+        return False
 
     def armed_flag(self):
         try:

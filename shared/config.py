@@ -73,6 +73,10 @@ class ConfigError(ValueError):
     """A configuration problem; the message is one line naming the key."""
 
 
+class ConfigFileMissing(ConfigError):
+    """The configuration file cannot be read (the board then flies the defaults)."""
+
+
 class Config:
     """Validated configuration in integer units (mm, mm/s, mm/s^2, ms)."""
 
@@ -155,7 +159,7 @@ def load_config_file(path):
         with open(path) as f:
             text = f.read()
     except OSError as exc:
-        raise ConfigError("config: cannot read %s: %s" % (path, exc)) from None
+        raise ConfigFileMissing("config: cannot read %s: %s" % (path, exc)) from None
     try:
         values = json.loads(text)
     except ValueError as exc:

@@ -29,8 +29,10 @@ Transitions (``_transition``), each branch opening with its rule:
 | coast | fast | estimated speed above the Mach lockout | `mach_lockout_mps` |
 | boost..coast | drogue | proven, and apogee (+ delay) or the backup timer | `apogee_delay_s`, |
 | | | | `backup_drogue_s` |
-| drogue | main | proven, at or below the main altitude, descending, the | `main_deploy_m`, |
-| | | guard time after the drogue | `main_guard_s` |
+| drogue | main | proven, the guard time after the drogue, descending; at or | `main_deploy_m`, |
+| | | below the main altitude if the maximum rose `main_margin_m` | `main_guard_s`, |
+| | | above it, else at once; no barometer: `main_delay_s` after | `main_margin_m`, |
+| | | the drogue | `main_delay_s` |
 | main | landed | altitude within a band over a window | `landed_alt_m` |
 
 Apogee itself is declared by the filter's rule only while ``_apogee_enabled()``: coast, proven,
@@ -481,8 +483,10 @@ class FlightComputer:
                 main = False
             elif not self.health.baro_ok:
                 main = since_ms >= cfg.main_delay_ms
+            elif self.vel_mmps >= 0:
+                main = False  # still climbing (a drogue on the backup timer): its maximum is to come
             elif self.max_agl_mm >= cfg.main_deploy_mm + cfg.main_margin_mm:
-                main = self.agl_mm <= cfg.main_deploy_mm and self.vel_mmps < 0
+                main = self.agl_mm <= cfg.main_deploy_mm
             else:
                 main = True  # it never rose clear of the main altitude: do not land on the drogue
             if main:

@@ -266,3 +266,81 @@ def test_a_pad_offset_that_launched_returns_to_the_pad_and_a_real_flight_still_f
     assert states[len(dts) - 1] == PAD
     assert drogue is not None and abs(drogue - apogee) <= 15
     assert BOOST in states[len(dts):]
+
+
+# -- one test per safety rule that the tests above do not already isolate (tools/mutate.py) -----
+
+def test_main_needs_proof_of_flight():
+    # a resume record that says "drogue fired" but not "proven" (a corrupted record): no main
+    from shared.flight import STATE_RECORD_SIZE
+
+    dts, alts, accs, truth, apogee = flight(after_apogee_s=120)
+    fc = FlightComputer(load_config())
+    record = bytearray(STATE_RECORD_SIZE)
+    for i in range(len(dts)):
+        fc.step(int(dts[i]), int(alts[i]), int(accs[i]), HAVE_BOTH)
+        if fc.events & EV_DROGUE:
+            fc.save_state(record)
+            break
+    record[2] &= ~3  # flags: launched and proven cleared
+    fc = FlightComputer(load_config())
+    assert fc.restore_state(record) and not fc.flight_proven
+    events = []
+    for j in range(i + 1, len(dts)):
+        fc.step(int(dts[j]), int(alts[j]), int(accs[j]), HAVE_BOTH)
+        events.append(fc.events)
+    assert not any(e & EV_MAIN for e in events) and not fc.pyro_main
+
+
+def test_barometer_only_slow_climb_never_proves():
+    # the barometer alone climbs 130 m at 8.7 m/s (the filter overshoots to 12 m/s, below
+    # proof_speed_mps) and stays: it launches by height, but a climb slower than any rocket's
+    # proves nothing, even past a proof climb lowered to 60 m
+    dts, alts, accs = pad(60, seed=40)
+    alts += offset_profile(len(dts), 50, 500, 130000, 15, None)
+    fc, events, pyro = run(dts, alts, accs, HAVE_BARO, sensors="baro", proof_baro_climb_m=60, **ALL_ON)
+    assert first(events, EV_LAUNCH) is not None
+    assert not fc.flight_proven and not pyro and first(events, FIRING) is None
+
+
+def test_apogee_needs_proof_of_flight():
+    # a barometer-only flight to 80 m (below proof_baro_climb_m) proves nothing: no apogee at all
+    dts, alts, accs, truth, apogee = flight(boost_mmps2=30000, burn_ms=1150, after_apogee_s=30)
+    assert 70000 < truth[apogee] - 300000 < 90000
+    fc, events, pyro = run(dts, alts, accs, HAVE_BARO, sensors="baro")
+    assert first(events, EV_LAUNCH) is not None and first(events, EV_APOGEE) is None and not pyro
+
+
+def test_main_only_while_descending():
+    # the backup timer fires the drogue in the climb (at 100 m): the main waits for the descent
+    dts, alts, accs, truth, apogee = flight(after_apogee_s=200)
+    fc, events, _ = run(dts, alts, accs, HAVE_BOTH, backup_drogue_s=1.5, main_guard_s=1)
+    drogue, main = first(events, EV_DROGUE), first(events, EV_MAIN)
+    assert drogue < apogee and main > apogee
+    assert abs(truth[main] - 300000 - 250000) <= 10000
+
+
+def test_erratic_barometer_refuses_launch():
+    # three pressure jumps of 80 m within a second, then a boost: no launch while it is erratic
+    dts, alts, accs = pad(30, seed=41)
+    alts[1000:1003] += 80000
+    alts[1006:1009] += 80000
+    accs[1010:1060] += 5 * G  # a boost during the error
+    fc = FlightComputer(load_config())
+    erratic = 0
+    for i in range(len(dts)):
+        fc.step(int(dts[i]), int(alts[i]), int(accs[i]), HAVE_BOTH)
+        erratic += bool(fc.errors & 8)
+        assert not fc.events & EV_LAUNCH, i
+    assert erratic
+
+
+def test_clipped_accelerometer_is_not_used():
+    # a 16 g part on a 20 g boost: its readings at full scale under-read; the barometer carries
+    # the boost, and apogee is still found
+    dts, alts, accs, truth, apogee = flight(boost_mmps2=196000, burn_ms=1000, after_apogee_s=20)
+    limit = int(16 * G * 0.98)
+    accs = np.clip(accs, -limit - 10, limit + 10)
+    fc, events, _ = run(dts, alts, accs, HAVE_BOTH, accel_range_g=16)
+    assert fc.errors & 2
+    assert abs(first(events, EV_DROGUE) - apogee) <= 30
