@@ -42,6 +42,7 @@ PAD_CHECK_S = 1
 PRESSURE_MIN_Q4 = 30000 * 16  # 30 kPa: about 9 km
 PRESSURE_MAX_Q4 = 110000 * 16
 LOG_SPACE_MARGIN = 16384
+SAVE_PERIOD_MS = 100  # the resume record is saved at least this often in flight (device/flightloop.py)
 CURRENT = None  # the running App, for inspection over mpremote (``app.CURRENT.last_summary``)
 
 
@@ -77,7 +78,7 @@ class App:
             self.errors.append((status.ERR_FILES, problem))
         self.hw = Hardware(self.board, self.machine)
         self.errors += self.hw.errors
-        self.resume = ResumeStore(self.machine)
+        self.resume = ResumeStore(self.machine, self.board["mcu"])
         self.unexpected_reset = False
         self.last_summary = None
         self.last_loop = None
@@ -93,6 +94,17 @@ class App:
             st.error(self.errors[0][0])
         else:
             st.idle()
+
+    def reset_gap_ms(self):
+        """The worst case of the flight time a reset cost (DESIGN.md D14): the board's measured
+        boot time, plus the time since the last save: up to the watchdog's timeout after a
+        watchdog reset (the loop stalled that long), else one save period (0.1 s)."""
+        m = self.machine
+        try:
+            wdt = m.reset_cause() == m.WDT_RESET
+        except Exception:  # noqa: BLE001 - a port without reset_cause: assume the worst
+            wdt = True
+        return self.board["boot_ms"] + (self.board["watchdog_ms"] if wdt else SAVE_PERIOD_MS)
 
     def power_on_reset(self):
         m = self.machine
@@ -113,7 +125,7 @@ class App:
                 rec = self.resume.load()
                 if rec is not None and rec["phase"] == PHASE_FLIGHT and self.resume.can_resume:
                     fc = FlightComputer(self.config)
-                    if self.resume.restore(fc, rec):
+                    if self.resume.restore(fc, rec, self.reset_gap_ms()):
                         self.say("reset in flight: resuming in state %s" % STATE_NAMES[fc.state])
                         self.fly("resume", rec, landed_beep_ms, fc)
                         return

@@ -44,7 +44,7 @@ AXES = {"+x": (0, 1), "-x": (0, -1), "+y": (1, 1), "-y": (1, -1), "+z": (2, 1), 
 
 _TOP_KEYS = ("board", "mcu", "description", "reset_glitch_pins", "reserved_pins", "input_only_pins",
              "sample_hz", "i2c", "baro", "accel", "pyro", "arm", "led", "buzzer", "timers",
-             "watchdog_ms", "log_ram_kb", "log_max_kb")
+             "watchdog_ms", "boot_ms", "log_ram_kb", "log_max_kb")
 
 
 class BoardError(ValueError):
@@ -209,6 +209,9 @@ def validate(desc):
     if mcu.startswith("esp32") and -1 in out["timers"]:
         raise BoardError("board: timers: the %s has no virtual timer; use hardware ids such as [0, 1]" % mcu)
     out["watchdog_ms"] = _int(desc.get("watchdog_ms", 2000), "watchdog_ms", 500, 8000)
+    # the worst-case time from a reset to the first sample of the resumed flight, measured on the
+    # board (docs/FIRMWARE.md); after a reset the flight's clock is advanced by it
+    out["boot_ms"] = _int(desc.get("boot_ms", 1000), "boot_ms", 0, 10000)
     out["log_ram_kb"] = _int(desc.get("log_ram_kb", 64), "log_ram_kb", 8, 4096)
     from device.flightlog import BLOCK_SIZE, pad_blocks_needed
 

@@ -111,9 +111,9 @@ _COAST_ACC_MAX_Q4 = const(-78456)  # -0.5 g in 1/16 mm/s^2: the most a coasting 
 # swings beyond -10 g; a tumbling rocket's (319-005) stays within it.
 _APOGEE_DECEL_MAX_MMPS2 = const(98067)
 
-_RECORD_FORMAT = "<BBBiiiiiiiiiiiiiiiii"
-_RECORD_VERSION = const(1)
-STATE_RECORD_SIZE = const(71)  # struct.calcsize(_RECORD_FORMAT)
+_RECORD_FORMAT = "<IIII"
+_RECORD_VERSION = const(2)
+STATE_RECORD_SIZE = const(16)  # struct.calcsize(_RECORD_FORMAT): the RP2040's four scratch words
 _RESUME_SETTLE_MS = const(2000)
 _FALSE_LAUNCH_MS = const(10000)  # a launch not proven within this, near the pad, was not one
 # The accelerometer's own account of the boost (proof of flight): the kinematic acceleration is
@@ -203,6 +203,7 @@ class FlightComputer:
         self.vel_mmps = 0
         self.settle_until_ms = 0  # after a resume: no apogee decision before this
         self._resume_pending = False
+        self._gap_us = 0  # after a resume: the time the reset cost, predicted across
 
     @property
     def ground_fixed(self):
@@ -220,6 +221,9 @@ class FlightComputer:
         """Process one sample; see the module docstring for units and outputs."""
         cfg = self.cfg
         self.events = 0
+        if self._gap_us:
+            dt_us += self._gap_us
+            self._gap_us = 0
         health = self.health
         have = health.judge(alt_mm, accel_mmps2, have)
         clipped = health.clipped
@@ -586,40 +590,71 @@ class FlightComputer:
         if self.pyro_main and self.now_ms >= self._main_off_ms:
             self.pyro_main = False
 
-    # Resume after a reset in flight (docs/DESIGN.md D3). The device writes this record to
-    # memory that survives a reset (RTC memory, or a small flash record) at launch and at every
-    # event; on boot it restores it and carries on instead of calibrating "ground" at altitude.
-    # Fields: version, state, flags (launched, proven, fired drogue, fired main), now_ms,
-    # launch_ms, burnout_ms, apogee_ms, drogue_due_ms, drogue_fired_ms, main_fired_ms,
-    # ground_alt_mm, one_g_mmps2, max_agl_mm, alt_q4, vel_q4, acc_q4, bias_q4, errors,
-    # acc_avg_q4, max_vel_mmps. The device saves it at every event and every 0.1 s in flight.
-    # A reset costs an unknown time, so after a restore the filter re-converges for
-    # _RESUME_SETTLE_MS (altitude taken from the first barometric reading, no gates, no apogee
-    # decision; the backup timer and main still work) before apogee may be declared.
+    # Resume after a reset in flight (docs/DESIGN.md D3, D14). The record is the smallest that
+    # allows a safe resume: four words of 30 bits (16 bytes: the RP2040's four free watchdog
+    # scratch registers; ESP32 RTC memory; or a file), each a non-negative small int so that
+    # packing allocates nothing on a 32-bit board:
+    #   w0: version (3) | state (3) | flags (4: launched, proven, drogue fired, main fired)
+    #       | errors (5) | check (15)
+    #   w1: time since launch in 10 ms (22: 11.6 h) | pad 1 g - 9807 in 16 mm/s^2, +128 (8)
+    #   w2: ground altitude in 0.5 m, +2**17 (18: +-65 km) | velocity in m/s, +2048 (12)
+    #   w3: maximum altitude above the pad in 2 m (14: 32 km) | drogue time since launch in
+    #       0.1 s (16; fired, or due after an apogee; 0xFFFF none)
+    # The altitude is not kept: the first barometric reading gives it. The device saves the record
+    # every 0.1 s in flight; a reset costs time the board cannot see, so the device passes the
+    # worst case (``gap_ms``: the boot time plus, after a watchdog reset, its timeout) and the
+    # filter predicts across it. The filter then re-converges for _RESUME_SETTLE_MS (altitude from
+    # the barometer, no gates, no apogee decision; the timers and the main still work), and a proof
+    # still owed comes from one sensor (the accelerometer's integrals restarted).
 
     def save_state(self, buf):
         """Pack the flight's state into ``buf`` (bytearray of STATE_RECORD_SIZE); no allocation."""
-        kf = self.kf
         flags = (self.launched | self.flight_proven << 1 | (self.drogue_fired_ms >= 0) << 2
                  | (self.main_fired_ms >= 0) << 3)
-        struct.pack_into(_RECORD_FORMAT, buf, 0, _RECORD_VERSION, self.state, flags, self.now_ms,
-                         self.launch_ms, self.burnout_ms, self.apogee_ms, self.drogue_due_ms,
-                         self.drogue_fired_ms, self.main_fired_ms, self.ground_alt_mm,
-                         self.one_g_mmps2, self.max_agl_mm, kf.alt_q4, kf.vel_q4, kf.acc_q4,
-                         kf.bias_q4, self.errors, self.acc_avg_q4, self.max_vel_mmps)
+        t10 = _field((self.now_ms - self.launch_ms) // 10, 0x3FFFFF)
+        one_g = _field((self.one_g_mmps2 - G_MMPS2) // 16 + 128, 0xFF)
+        w1 = t10 << 8 | one_g
+        ground = _field(self.ground_alt_mm // 500 + 0x20000, 0x3FFFF)
+        vel = _field(self.vel_mmps // 1000 + 2048, 0xFFF)
+        w2 = ground << 12 | vel
+        drogue_ms = self.drogue_fired_ms if self.drogue_fired_ms >= 0 else self.drogue_due_ms
+        drogue = _field((drogue_ms - self.launch_ms) // 100, 0xFFFE) if drogue_ms >= 0 else 0xFFFF
+        w3 = _field(self.max_agl_mm // 2000, 0x3FFF) << 16 | drogue
+        head = _RECORD_VERSION << 12 | self.state << 9 | flags << 5 | (self.errors & 31)
+        w0 = head << 15 | _check(head, w1, w2, w3)
+        struct.pack_into(_RECORD_FORMAT, buf, 0, w0, w1, w2, w3)
 
-    def restore_state(self, buf):
-        """Resume from a record written by ``save_state``. Returns False (and changes nothing) if
-        the record is not a valid in-flight record of this version."""
-        fields = struct.unpack_from(_RECORD_FORMAT, buf, 0)
-        if fields[0] != _RECORD_VERSION or not PAD < fields[1] <= LANDED:
+    def restore_state(self, buf, gap_ms=0):
+        """Resume from a record written by ``save_state``, ``gap_ms`` after it was written. Returns
+        False (and changes nothing) if the record is not a valid in-flight record."""
+        w0, w1, w2, w3 = struct.unpack_from(_RECORD_FORMAT, buf, 0)
+        head = w0 >> 15
+        state = head >> 9 & 7
+        if head >> 12 != _RECORD_VERSION or w0 & 0x7FFF != _check(head, w1, w2, w3) or not (
+                PAD < state <= LANDED):
             return False
-        (_, self.state, flags, self.now_ms, self.launch_ms, self.burnout_ms, self.apogee_ms,
-         self.drogue_due_ms, self.drogue_fired_ms, self.main_fired_ms, self.ground_alt_mm,
-         self.one_g_mmps2, self.max_agl_mm, alt_q4, vel_q4, acc_q4, bias_q4, self.errors,
-         self.acc_avg_q4, self.max_vel_mmps) = fields
+        flags = head >> 5 & 15
+        self.state = state
+        self.errors = head & 31
         self.launched = bool(flags & 1)
         self.flight_proven = bool(flags & 2)
+        self.launch_ms = 0
+        self.now_ms = (w1 >> 8) * 10
+        self.burnout_ms = self.now_ms
+        self.one_g_mmps2 = G_MMPS2 + ((w1 & 0xFF) - 128) * 16
+        self.ground_alt_mm = ((w2 >> 12) - 0x20000) * 500
+        vel_mmps = ((w2 & 0xFFF) - 2048) * 1000
+        self.max_agl_mm = (w3 >> 16) * 2000
+        self.max_vel_mmps = vel_mmps if vel_mmps > 0 else 0
+        drogue = w3 & 0xFFFF
+        if flags & 4:
+            self.drogue_fired_ms = drogue * 100
+            self.apogee_ms = self.drogue_fired_ms
+        elif drogue != 0xFFFF:
+            self.drogue_due_ms = drogue * 100
+            self.apogee_ms = self.drogue_due_ms - self.cfg.apogee_delay_ms
+        if flags & 8:
+            self.main_fired_ms = self.now_ms
         pad = self.pad
         pad.ground_fixed = True
         pad.ground_alt_mm = self.ground_alt_mm
@@ -627,11 +662,29 @@ class FlightComputer:
         pad.errors = self.errors & PAD_ERRORS
         self.started = True
         kf = self.kf
-        kf.alt_q4, kf.vel_q4, kf.acc_q4, kf.bias_q4 = alt_q4, vel_q4, acc_q4, bias_q4
+        kf.reset(self.ground_alt_mm + self.max_agl_mm, vel_mmps,
+                 -G_MMPS2 if FAST <= state <= COAST else 0)
+        self.agl_mm = self.max_agl_mm
+        self.vel_mmps = vel_mmps
         self.det.dt_us = -1
-        self.settle_until_ms = self.now_ms + _RESUME_SETTLE_MS
+        self._gap_us = gap_ms * 1000  # the next step predicts across the reset
+        self.settle_until_ms = self.now_ms + gap_ms + _RESUME_SETTLE_MS
         self.acc_account = False  # proof, if still owed, from one sensor alone
         self._resume_pending = True
         self._land_start_ms = self.now_ms
-        self._land_min_mm = self._land_max_mm = (alt_q4 >> 4) - self.ground_alt_mm
+        self._land_min_mm = self._land_max_mm = self.max_agl_mm
         return True
+
+
+def _field(value, top):
+    """``value`` clamped to 0..top (a record field)."""
+    if value < 0:
+        return 0
+    if value > top:
+        return top
+    return value
+
+
+def _check(head, w1, w2, w3):
+    """15-bit check of a resume record (a blank or torn record fails it)."""
+    return (head ^ w1 ^ (w1 >> 15) ^ w2 ^ (w2 >> 15) ^ w3 ^ (w3 >> 15) ^ 0x5A5A) & 0x7FFF

@@ -280,9 +280,9 @@ def test_main_needs_proof_of_flight():
     for i in range(len(dts)):
         fc.step(int(dts[i]), int(alts[i]), int(accs[i]), HAVE_BOTH)
         if fc.events & EV_DROGUE:
+            fc.launched = fc.flight_proven = False  # the corruption
             fc.save_state(record)
             break
-    record[2] &= ~3  # flags: launched and proven cleared
     fc = FlightComputer(load_config())
     assert fc.restore_state(record) and not fc.flight_proven
     events = []
