@@ -199,13 +199,13 @@ def test_thrust_to_weight_2_9_launches_and_fires_at_apogee(sensors):
 # -- the main by altitude only after a proven maximum above it -------------------------------------
 
 def test_under_performing_flight_opens_the_main_after_the_guard():
-    # apogee 270 m: below main_deploy_m + main_margin_m, so the main follows the drogue after
+    # apogee 290 m: below main_deploy_m + main_margin_m, so the main follows the drogue after
     # main_guard_s rather than when the filter says 250 m (it must not land on its drogue)
-    dts, alts, accs, truth, apogee = flight(boost_mmps2=30000, burn_ms=2100, after_apogee_s=60)
-    assert 250000 < truth[apogee] - 300000 < 300000
-    fc, events, _ = run(dts, alts, accs, HAVE_BOTH, main_guard_s=3)
+    dts, alts, accs, truth, apogee = flight(boost_mmps2=30000, burn_ms=2180, after_apogee_s=60)
+    assert 280000 < truth[apogee] - 300000 < 300000
+    fc, events, _ = run(dts, alts, accs, HAVE_BOTH, main_guard_s=1)
     drogue, main = first(events, EV_DROGUE), first(events, EV_MAIN)
-    assert main - drogue == 300
+    assert main - drogue == 100
 
 
 # -- the pad scenarios -----------------------------------------------------------------------------
@@ -344,3 +344,26 @@ def test_clipped_accelerometer_is_not_used():
     fc, events, _ = run(dts, alts, accs, HAVE_BOTH, accel_range_g=16)
     assert fc.errors & 2
     assert abs(first(events, EV_DROGUE) - apogee) <= 30
+
+
+def test_resume_settles_before_apogee_after_an_overestimated_reset():
+    # the record saved 3 s before apogee (+30 m/s), the reset assumed to have cost 3 s when it cost
+    # nothing: predicted across the gap, the filter's speed is about 0. It must re-learn it from the
+    # barometer (the settle period) before any apogee decision, not fire 3 s early
+    from shared.flight import STATE_RECORD_SIZE
+
+    dts, alts, accs, truth, apogee = flight(after_apogee_s=20)
+    fc = FlightComputer(load_config())
+    record = bytearray(STATE_RECORD_SIZE)
+    for i in range(apogee - 300):
+        fc.step(int(dts[i]), int(alts[i]), int(accs[i]), HAVE_BOTH)
+    fc.save_state(record)
+    fc = FlightComputer(load_config())
+    assert fc.restore_state(record, 3000)
+    drogue = None
+    for j in range(apogee - 300, len(dts)):
+        fc.step(int(dts[j]), int(alts[j]), int(accs[j]), HAVE_BOTH)
+        if fc.events & EV_DROGUE:
+            drogue = j
+            break
+    assert drogue is not None and abs(drogue - apogee) <= 50
