@@ -239,9 +239,22 @@ class App:
                 elif not lo <= axis <= hi:
                     problems.append((status.ERR_ONE_G, "accelerometer axis %s reads %.2f g: board not "
                                      "upright or mounted inverted" % (b["accel"]["axis"], axis / G_MMPS2)))
+        continuity = {}
         for i in range(2):
-            if hw.pyro.continuity(i) == 0:
-                problems.append((status.ERR_CONTINUITY, "%s igniter: no continuity" % ("drogue", "main")[i]))
+            name = boardmod.CHANNELS[i]
+            c = hw.pyro.continuity(i)
+            continuity[name] = ("no sense input", "open", "connected")[c + 1]
+            if c == 0:
+                problems.append((status.ERR_CONTINUITY, "%s igniter: no continuity" % name))
+        self.pad_figures["continuity"] = continuity  # reported per channel, logged in the header
+        supply_mv = {}
+        for name in b["supply"]:
+            sup = b["supply"][name]
+            mv = self.machine.ADC(self.machine.Pin(sup["pin"])).read_u16() * sup["full_scale_mv"] // 65535
+            supply_mv[name] = mv
+            if mv < sup["min_mv"]:
+                problems.append((status.ERR_SUPPLY, "%s at %d mV, below %d mV" % (name, mv, sup["min_mv"])))
+        self.pad_figures["supply_mv"] = supply_mv
         try:
             st = os.statvfs("/")
             free = st[0] * st[4]

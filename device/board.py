@@ -44,7 +44,8 @@ AXES = {"+x": (0, 1), "-x": (0, -1), "+y": (1, 1), "-y": (1, -1), "+z": (2, 1), 
 
 _TOP_KEYS = ("board", "mcu", "description", "reset_glitch_pins", "reserved_pins", "input_only_pins",
              "sample_hz", "i2c", "baro", "accel", "pyro", "arm", "led", "buzzer", "timers",
-             "watchdog_ms", "boot_ms", "log_ram_kb", "log_max_kb")
+             "watchdog_ms", "boot_ms", "log_ram_kb", "log_max_kb", "supply")
+SUPPLIES = ("battery", "pyro_rail")
 
 
 class BoardError(ValueError):
@@ -202,6 +203,15 @@ def validate(desc):
         out["buzzer"] = {"pin": use(_int(a.get("pin"), "buzzer.pin", 0, ngpio - 1), "buzzer", True),
                          "kind": kind, "freq": _int(a.get("freq", 4000), "buzzer.freq", 100, 20000),
                          "active": _int(a.get("active", 1), "buzzer.active", 0, 1)}
+    # voltages checked before arming (AltOS, RRC3 and Eggtimer all report them): an ADC input behind
+    # a divider; full_scale_mv is the voltage that reads 65535
+    out["supply"] = {}
+    for name, sup in _obj(desc.get("supply", {}), "supply", SUPPLIES).items():
+        a = _obj(sup, "supply." + name, ("pin", "full_scale_mv", "min_mv"))
+        out["supply"][name] = {
+            "pin": use(_int(a.get("pin"), "supply.%s.pin" % name, 0, ngpio - 1), "supply." + name, False),
+            "full_scale_mv": _int(a.get("full_scale_mv"), "supply.%s.full_scale_mv" % name, 100, 100000),
+            "min_mv": _int(a.get("min_mv"), "supply.%s.min_mv" % name, 0, 100000)}
     timers = desc.get("timers", [-1, -1])
     if not isinstance(timers, list) or len(timers) != 2:
         raise BoardError("board: timers must be two hardware timer ids [drogue, main] (-1: virtual)")

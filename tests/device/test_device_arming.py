@@ -89,3 +89,23 @@ def test_arming_input_still_arms_with_good_files(tmp_path):
     assert any("flight mode" in line for line in result["console"])
     assert len(rises(result, DROGUE_PIN)) == 1
     assert json.loads((tmp_path / "board" / "config.json").read_text()) == {}
+
+
+@pytest.mark.parametrize("rail_u16,arms", [(60000, True), (30000, False)])
+def test_supply_voltages_and_continuity_checked_and_logged_before_arming(tmp_path, rail_u16, arms):
+    # the pyro rail behind a 1:3 divider (65535 reads 9.9 V), 7 V needed: 9.06 V arms, 4.53 V does not
+    from desktop.io.logdecode import read_log
+
+    supply = {"pyro_rail": {"pin": 28, "full_scale_mv": 9900, "min_mv": 7000}}
+    sc = Scenario(duration_s=40, launch_s=None, seed=24)
+    adc = [[26, 40000], [27, 40000], [28, rail_u16]]
+    result = run_sil(tmp_path / "board", sc, board={"supply": supply}, adc=adc,
+                     inputs=[[ARM_PIN, 0, 1_000_000], [ARM_PIN, 1, 30_000_000]])
+    console = "\n".join(result["console"])
+    if arms:
+        assert "flight mode" in console
+        header = read_log(result["log"]).header
+        assert header["pad_checks"]["supply_mv"] == {"pyro_rail": 60000 * 9900 // 65535}
+        assert header["pad_checks"]["continuity"] == {"drogue": "connected", "main": "connected"}
+    else:
+        assert "pyro_rail at 4531 mV, below 7000 mV" in console and "flight mode" not in console
