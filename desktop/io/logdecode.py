@@ -1,13 +1,16 @@
 """Decode a board's flight log (``flight.log``) into a flight CSV: ``python -m desktop logdecode``.
 
 The log format is defined in ``shared/logformat.py``. The decoder checks every block (magic, CRC,
-sequence number), keeps the records of the flight computer that was in use at the end of the log
+sequence number) and reports every problem and every gap in the samples; a damaged header costs
+only the header (the blocks are found by their magic and CRC, and the configuration is reported
+unknown). It keeps the records of the flight computer that was in use at the end of the log
 (the board starts a fresh one every few seconds on the pad: ``device/flightloop.py``, "pad
 epochs"), and writes them as a flight CSV (docs/FLIGHT_CSV.md) that replays through the same
 ``shared/`` code bit for bit:
 
-- ``time_s``: the sum of the board's integer ``dt_us``, 0 at the launch sample (or at the first
-  row without a launch): exact microseconds;
+- ``time_s``: the sum of the board's integer ``dt_us``, plus one sample period for every sample
+  missing from the log (a lost block keeps its time: the replay predicts across the gap), 0 at the
+  launch sample (or at the first row without a launch): exact microseconds;
 - ``pressure_pa``: the board's Pa x 16 reading divided by 16, written with 4 decimals (exact), empty
   where the sample had no fresh barometer reading;
 - ``accel_mps2``: the board's mm/s^2 reading / 1000 (exact at 4 decimals), empty when missing;
