@@ -65,11 +65,11 @@ from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
     ERR_BARO_ERRATIC,
     ERR_ORIENTATION,
     ERR_PAD_BARO_STEP,
-    G_MMPS2,
     PAD_BARO_JUMP_MM,
     PAD_ERRORS,
     PadCalibration,
 )
+from shared.physics import G_MMPS2
 
 # States, in flight order.
 PAD = const(0)

@@ -14,10 +14,10 @@ except ImportError:
         return x
 
 from shared.detector import HAVE_ACCEL, HAVE_BARO
+from shared.physics import G_MMPS2
 
 _CAL_BLOCK_MS = const(1000)
 _PAD_OFFSET_LIMIT_MM = const(0xFFFFF)  # 2**20 - 1: 1 km
-G_MMPS2 = const(9807)
 # The pad reading of the axis must be within 50% of 1 g (see check_orientation): a wrong part or
 # range, an inverted mount, or a board lying down (docs/DESIGN.md D4).
 _ONE_G_MIN = const(4903)
