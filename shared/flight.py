@@ -175,6 +175,7 @@ class FlightComputer:
         self.acc_dv_mmps = 0  # speed integrated from the accelerometer since the push began
         self.acc_dv_max_mmps = 0
         self.acc_h_mm = 0  # height integrated from it
+        self.acc_clipped = False  # a clipped reading entered them: they are lower bounds
         self.acc_meas_avg = 0  # averaged measured kinematic acceleration, mm/s^2 (apogee gate)
         # the accelerometer itself has shown a coast (averaged at or below -coast_decel_mps2 after
         # launch): a rocket standing on the pad reads +1 g and never does; once seen, the board's
@@ -295,7 +296,7 @@ class FlightComputer:
         self._update_averages(dt_us)
         self._update_boost(dt_us, acc_kin, have, clipped)
         if measured_acc or clipped:
-            self._integrate_accel(dt_us // 1000, acc_kin)
+            self._integrate_accel(dt_us // 1000, acc_kin, clipped)
         if measured_acc:
             self.acc_meas_avg = _ema(self.acc_meas_avg, acc_kin, dt_us // 1000, _DECEL_TAU_MS)
             if state != PAD and self.acc_meas_avg <= -cfg.coast_decel_mmps2:
@@ -369,14 +370,17 @@ class FlightComputer:
         else:
             self.boost_ms = 0
 
-    def _integrate_accel(self, dt_ms, acc_kin):
+    def _integrate_accel(self, dt_ms, acc_kin, clipped):
         """The accelerometer's own account of the boost, until proof: speed and height integrated
         from the first sample of a push on the pad (reset while the pad is quiet), signed."""
         if self.flight_proven:
             return
         if self.state == PAD and acc_kin <= _PUSH_MMPS2:
             self.acc_dv_mmps = self.acc_dv_max_mmps = self.acc_h_mm = 0
+            self.acc_clipped = False
             return
+        if clipped:
+            self.acc_clipped = True
         if dt_ms > 1000:
             dt_ms = 1000
         if acc_kin > _INT_LIMIT:
@@ -424,7 +428,8 @@ class FlightComputer:
         agree = True
         if baro_ok and accel_ok:
             diff = climb_mm - self.acc_h_mm
-            agree = -_AGREE_MM - (climb_mm >> 2) <= diff <= _AGREE_MM + (climb_mm >> 2)
+            agree = -_AGREE_MM - (climb_mm >> 2) <= diff and (
+                self.acc_clipped or diff <= _AGREE_MM + (climb_mm >> 2))  # clipped: a lower bound
         if climb_mm >= line_mm and agree:
             self.climb_ms += dt_ms
         elif self.climb_ms > dt_ms:
@@ -555,6 +560,7 @@ class FlightComputer:
         self.boost_ms = self.boost_max_ms = self.climb_ms = 0
         self.max_agl_mm = self.max_vel_mmps = 0
         self.acc_dv_mmps = self.acc_dv_max_mmps = self.acc_h_mm = 0
+        self.acc_clipped = False
         self.coast_measured = False
         self.errors |= ERR_FALSE_LAUNCH
         self.kf.reset(self.ground_alt_mm + self.baro_agl_mm if baro_ok else self.kf.alt_q4 >> 4)

@@ -156,7 +156,7 @@ MUTANTS = [
     ("range-check", HEALTH,
      "if have & HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):",
      "if False:",
-     PAD_TESTS + "::test_out_of_range_barometer_in_boost_is_not_used"),
+     PAD_TESTS + "::test_out_of_range_barometer_on_the_pad_is_not_a_pressure_step"),
     ("boost-gate", FLIGHT,
      "self.det.gate_alt_mm = cfg.boost_gate_mm",
      "self.det.gate_alt_mm = 0",
