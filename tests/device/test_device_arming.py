@@ -1,4 +1,4 @@
-"""Arming and flight mode on real MicroPython (software in the loop, tests/support/sil/): the
+"""Arming and flight mode on real MicroPython (software in the loop, desktop/hosts/sil/): the
 watchdog first, ``armed.flag`` written and read back before arming, the log best-effort, and the
 pyro pins of ``pyro_pins.txt`` cross-checked with ``board.json`` (boot.py and the app).
 """
@@ -10,8 +10,8 @@ import shutil
 import pytest
 
 from desktop.hosts.micropython import REPO_ROOT, run_micropython
-from tests.support.sil.flightgen import Scenario
-from tests.support.sil.host import ARM_PIN, DROGUE_PIN, MAIN_PIN, rises, run_sil
+from desktop.hosts.sil.flightgen import Scenario
+from desktop.hosts.sil.host import ARM_PIN, DROGUE_PIN, MAIN_PIN, rises, run_sil
 
 pytestmark = pytest.mark.micropython
 
@@ -48,7 +48,7 @@ def test_stale_or_bad_pyro_pins_file_refuses_to_arm(tmp_path, text):
     board = tmp_path / "board"
     board.mkdir()
     sc = Scenario(duration_s=30, launch_s=15, seed=23)
-    from tests.support.sil.host import prepare
+    from desktop.hosts.sil.host import prepare
 
     prepare(board, sc)
     (board / "pyro_pins.txt").write_text(text)
@@ -69,7 +69,7 @@ def test_boot_py_drives_board_json_pins_low_whatever_pyro_pins_txt_says(tmp_path
     (wd / "pyro_pins.txt").write_text(text)
     code = """
 import json, os
-from tests.support.sil import fake_machine
+from desktop.hosts.sil import fake_machine
 fake_machine.install()
 import machine
 for n in (16, 17):
