@@ -176,7 +176,7 @@ MUTANTS = [
     ("coast-gates", FLIGHT,
      "self.det.gate_alt_mm = _GATE_ALT_MM",
      "self.det.gate_alt_mm = 0",
-     FLIGHT_TESTS + "::test_accelerometer_glitch_in_coast_does_not_fire_early"),
+     PAD_TESTS + "::test_barometer_transient_in_coast_does_not_fire_early"),
     ("resume-proof-from-one-sensor", FLIGHT,
      "self.acc_account = False  # proof, if still owed, from one sensor alone",
      "pass",
