@@ -31,7 +31,7 @@ from device import flightlog, status
 from device.board import BoardError, Hardware
 from device.flightloop import FlightLoop, collect
 from device.resume import PHASE_FLIGHT, PHASE_LANDED, ResumeStore
-from shared.config import ConfigError, load_config, load_config_file
+from shared.config import ConfigError, ConfigFileMissing, load_config, load_config_file
 from shared.flight import STATE_NAMES, FlightComputer
 from shared.physics import G_MMPS2
 
@@ -42,6 +42,7 @@ PAD_CHECK_S = 1
 PRESSURE_MIN_Q4 = 30000 * 16  # 30 kPa: about 9 km
 PRESSURE_MAX_Q4 = 110000 * 16
 LOG_SPACE_MARGIN = 16384
+SAVE_PERIOD_MS = 100  # the resume record is saved at least this often in flight (device/flightloop.py)
 CURRENT = None  # the running App, for inspection over mpremote (``app.CURRENT.last_summary``)
 
 
@@ -62,20 +63,22 @@ class App:
         self.board = boardmod.load(board_path)  # BoardError: main() prints it and stops
         try:
             self.config = load_config_file(config_path)
+        except ConfigFileMissing:
+            self.config = load_config({})
+            print("config: %s not found, using the defaults" % config_path)
         except ConfigError as exc:
-            if "cannot read" in str(exc):
-                self.config = load_config({})
-                print("config: %s not found, using the defaults" % config_path)
-            else:
-                self.config = load_config({})
-                self.errors.append((status.ERR_FILES, str(exc)))
+            self.config = load_config({})
+            self.errors.append((status.ERR_FILES, str(exc)))
         try:
             boardmod.check_with_config(self.board, self.config)
         except BoardError as exc:
             self.errors.append((status.ERR_FILES, str(exc)))
+        problem = boardmod.check_pyro_pins_file(self.board)
+        if problem:  # boot.py drove these pins low at reset: they must be the pyro pins
+            self.errors.append((status.ERR_FILES, problem))
         self.hw = Hardware(self.board, self.machine)
         self.errors += self.hw.errors
-        self.resume = ResumeStore(self.machine)
+        self.resume = ResumeStore(self.machine, self.board["mcu"])
         self.unexpected_reset = False
         self.last_summary = None
         self.last_loop = None
@@ -91,6 +94,17 @@ class App:
             st.error(self.errors[0][0])
         else:
             st.idle()
+
+    def reset_gap_ms(self):
+        """The worst case of the flight time a reset cost (DESIGN.md D14): the board's measured
+        boot time, plus the time since the last save: up to the watchdog's timeout after a
+        watchdog reset (the loop stalled that long), else one save period (0.1 s)."""
+        m = self.machine
+        try:
+            wdt = m.reset_cause() == m.WDT_RESET
+        except Exception:  # noqa: BLE001 - a port without reset_cause: assume the worst
+            wdt = True
+        return self.board["boot_ms"] + (self.board["watchdog_ms"] if wdt else SAVE_PERIOD_MS)
 
     def power_on_reset(self):
         m = self.machine
@@ -111,7 +125,7 @@ class App:
                 rec = self.resume.load()
                 if rec is not None and rec["phase"] == PHASE_FLIGHT and self.resume.can_resume:
                     fc = FlightComputer(self.config)
-                    if self.resume.restore(fc, rec):
+                    if self.resume.restore(fc, rec, self.reset_gap_ms()):
                         self.say("reset in flight: resuming in state %s" % STATE_NAMES[fc.state])
                         self.fly("resume", rec, landed_beep_ms, fc)
                         return
@@ -225,9 +239,22 @@ class App:
                 elif not lo <= axis <= hi:
                     problems.append((status.ERR_ONE_G, "accelerometer axis %s reads %.2f g: board not "
                                      "upright or mounted inverted" % (b["accel"]["axis"], axis / G_MMPS2)))
+        continuity = {}
         for i in range(2):
-            if hw.pyro.continuity(i) == 0:
-                problems.append((status.ERR_CONTINUITY, "%s igniter: no continuity" % ("drogue", "main")[i]))
+            name = boardmod.CHANNELS[i]
+            c = hw.pyro.continuity(i)
+            continuity[name] = ("no sense input", "open", "connected")[c + 1]
+            if c == 0:
+                problems.append((status.ERR_CONTINUITY, "%s igniter: no continuity" % name))
+        self.pad_figures["continuity"] = continuity  # reported per channel, logged in the header
+        supply_mv = {}
+        for name in b["supply"]:
+            sup = b["supply"][name]
+            mv = self.machine.ADC(self.machine.Pin(sup["pin"])).read_u16() * sup["full_scale_mv"] // 65535
+            supply_mv[name] = mv
+            if mv < sup["min_mv"]:
+                problems.append((status.ERR_SUPPLY, "%s at %d mV, below %d mV" % (name, mv, sup["min_mv"])))
+        self.pad_figures["supply_mv"] = supply_mv
         try:
             st = os.statvfs("/")
             free = st[0] * st[4]
@@ -294,29 +321,45 @@ class App:
     # -- flight mode ---------------------------------------------------------------------------------
 
     def fly(self, how, resume_rec, landed_beep_ms, fc=None):
+        """Flight mode. The watchdog first (nothing after it may leave an armed board without
+        one); on the pad ``armed.flag`` written and read back (else refused: after a reset the
+        board would not know it was armed); the log is best-effort: a flight, and above all a
+        resumed one, goes on without it."""
         hw = self.hw
         cfg = self.config
         logfile = None
         micropython.kbd_intr(-1)
         try:
-            try:
-                logbuf = flightlog.LogBuffer(self.board["log_ram_kb"] * 1024)
-                logbuf.max_blocks = self.board["log_max_kb"] * 1024 // flightlog.BLOCK_SIZE
-                logfile = self.open_log(how, resume_rec)
-            except (MemoryError, OSError) as exc:
-                self.errors = [(status.ERR_LOG, "log: %s (lower log_ram_kb, free flash)" % exc)]
-                self.say("not arming: error 5: %s" % self.errors[0][1])
+            hw.start_watchdog()
+            if resume_rec is None and not self.resume.set_armed_flag(how):
+                self.errors = [(status.ERR_FILES, "armed.flag cannot be written and read back")]
+                self.say("not arming: error %d: %s" % (status.ERR_FILES, self.errors[0][1]))
                 self.show_errors()
                 return "refused"
-            if resume_rec is None:
-                self.resume.set_armed_flag(how)
+            try:
+                logbuf = flightlog.LogBuffer(self.board["log_ram_kb"] * 1024)
+            except MemoryError as exc:
+                if resume_rec is None:
+                    self.resume.clear_armed_flag()
+                    self.errors = [(status.ERR_LOG, "log: %s (lower log_ram_kb)" % exc)]
+                    self.say("not arming: error 5: %s" % self.errors[0][1])
+                    self.show_errors()
+                    return "refused"
+                collect()  # resumed: fly with the smallest buffer the pad logic needs
+                logbuf = flightlog.LogBuffer(
+                    flightlog.pad_blocks_needed(self.board["sample_hz"]) * flightlog.BLOCK_SIZE)
+            logbuf.max_blocks = self.board["log_max_kb"] * 1024 // flightlog.BLOCK_SIZE
+            try:
+                logfile = self.open_log(how, resume_rec)
+            except OSError as exc:
+                self.errors.append((status.ERR_LOG, "log: %s: flying without a log" % exc))
+                self.say("error 5: log %s cannot be opened (%s): flying without a log" % (self.log_path, exc))
             fc_start = 0
             if resume_rec is not None:
                 fc_start = resume_rec["fc_start"]
                 logbuf.sample = resume_rec["sample"]
                 logbuf.write_text(logfile, flightlog.KIND_NOTE, json.dumps(
                     {"resumed": True, "sample": resume_rec["sample"], "state": resume_rec["state"]}))
-            hw.start_watchdog()
             loop = FlightLoop(hw, cfg, logbuf, logfile, self.resume, fc, fc_start)
             if resume_rec is not None:
                 logbuf.keep_from = resume_rec["sample"]
@@ -333,8 +376,9 @@ class App:
             summary["armed_by"] = how
             self.last_summary = summary
             logbuf.write_text(logfile, flightlog.KIND_SUMMARY, json.dumps(summary))
-            logfile.close()
-            logfile = None
+            if logfile is not None:
+                logfile.close()
+                logfile = None
             if reason == "landed":
                 self.resume.save(PHASE_LANDED, loop.fc, logbuf.sample, loop.fc_start)
             else:

@@ -44,7 +44,8 @@ AXES = {"+x": (0, 1), "-x": (0, -1), "+y": (1, 1), "-y": (1, -1), "+z": (2, 1), 
 
 _TOP_KEYS = ("board", "mcu", "description", "reset_glitch_pins", "reserved_pins", "input_only_pins",
              "sample_hz", "i2c", "baro", "accel", "pyro", "arm", "led", "buzzer", "timers",
-             "watchdog_ms", "log_ram_kb", "log_max_kb")
+             "watchdog_ms", "boot_ms", "log_ram_kb", "log_max_kb", "supply")
+SUPPLIES = ("battery", "pyro_rail")
 
 
 class BoardError(ValueError):
@@ -202,6 +203,15 @@ def validate(desc):
         out["buzzer"] = {"pin": use(_int(a.get("pin"), "buzzer.pin", 0, ngpio - 1), "buzzer", True),
                          "kind": kind, "freq": _int(a.get("freq", 4000), "buzzer.freq", 100, 20000),
                          "active": _int(a.get("active", 1), "buzzer.active", 0, 1)}
+    # voltages checked before arming (AltOS, RRC3 and Eggtimer all report them): an ADC input behind
+    # a divider; full_scale_mv is the voltage that reads 65535
+    out["supply"] = {}
+    for name, sup in _obj(desc.get("supply", {}), "supply", SUPPLIES).items():
+        a = _obj(sup, "supply." + name, ("pin", "full_scale_mv", "min_mv"))
+        out["supply"][name] = {
+            "pin": use(_int(a.get("pin"), "supply.%s.pin" % name, 0, ngpio - 1), "supply." + name, False),
+            "full_scale_mv": _int(a.get("full_scale_mv"), "supply.%s.full_scale_mv" % name, 100, 100000),
+            "min_mv": _int(a.get("min_mv"), "supply.%s.min_mv" % name, 0, 100000)}
     timers = desc.get("timers", [-1, -1])
     if not isinstance(timers, list) or len(timers) != 2:
         raise BoardError("board: timers must be two hardware timer ids [drogue, main] (-1: virtual)")
@@ -209,6 +219,9 @@ def validate(desc):
     if mcu.startswith("esp32") and -1 in out["timers"]:
         raise BoardError("board: timers: the %s has no virtual timer; use hardware ids such as [0, 1]" % mcu)
     out["watchdog_ms"] = _int(desc.get("watchdog_ms", 2000), "watchdog_ms", 500, 8000)
+    # the worst-case time from a reset to the first sample of the resumed flight, measured on the
+    # board (docs/FIRMWARE.md); after a reset the flight's clock is advanced by it
+    out["boot_ms"] = _int(desc.get("boot_ms", 1000), "boot_ms", 0, 10000)
     out["log_ram_kb"] = _int(desc.get("log_ram_kb", 64), "log_ram_kb", 8, 4096)
     from device.flightlog import BLOCK_SIZE, pad_blocks_needed
 
@@ -248,6 +261,25 @@ def load(path="board.json"):
 def pyro_pins_text(board):
     """The one-line file boot.py reads before anything else: the pyro pin numbers."""
     return " ".join([str(board["pyro"][ch]["pin"]) for ch in CHANNELS]) + "\n"
+
+
+def check_pyro_pins_file(board, path="pyro_pins.txt"):
+    """None when ``path`` names exactly the board's pyro pins, else the problem in one line (the
+    app refuses to arm: boot.py drove the pins of that file low at reset, not necessarily these)."""
+    try:
+        with open(path) as f:
+            text = f.read()
+    except OSError:
+        return "board: %s is missing; run tools/deploy.py" % path
+    try:
+        pins = sorted([int(p) for p in text.split()])
+    except ValueError:
+        return "board: %s is not a list of pin numbers: %r" % (path, text[:40])
+    want = sorted([board["pyro"][ch]["pin"] for ch in CHANNELS])
+    if pins != want:
+        return "board: %s names pins %s, board.json's pyro pins are %s; run tools/deploy.py" % (
+            path, pins, want)
+    return None
 
 
 # -- hardware (MicroPython) ----------------------------------------------------------------------

@@ -51,8 +51,10 @@ ERR_LOG = 5
 ERR_FILES = 6
 ERR_RESET = 7
 ERR_ARM_COMMAND = 8
+ERR_SUPPLY = 9
 ERROR_NAMES = {1: "barometer", 2: "accelerometer", 3: "not +1 g on the axis", 4: "continuity",
-               5: "log storage", 6: "board/config file", 7: "unexpected reset", 8: "command arming refused"}
+               5: "log storage", 6: "board/config file", 7: "unexpected reset", 8: "command arming refused",
+               9: "battery or pyro rail voltage low"}
 
 _MAX_STEPS = 64
 

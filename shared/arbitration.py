@@ -36,7 +36,7 @@ from shared.physics import G_MMPS2
 _SLOT_MS = const(50)  # averaging slot: 5 readings at 100 Hz, 1 at 20 Hz
 _WINDOW_SLOTS = const(10)  # 0.5 s window: a 200 m transient reads as 400 m/s, 6 m noise as ~8 m/s
 # 1.6 s of history: the accelerometer-only velocity is anchored before the barometer's fault was
-# detected (a frozen run is detected after baro_stuck_s, a loss after sensor_timeout_s)
+# detected (a frozen run is detected after baro_stuck_s, a loss after sensor_lost_s)
 _HISTORY_SLOTS = const(32)
 # after an inconsistent window the barometer is consistent again only when every window over this
 # long agrees: a window is this long, so the transient has left it

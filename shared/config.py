@@ -14,7 +14,15 @@ from shared.physics import G_MMPS2
 # keys documented as "0 = off". Defaults suit a typical high-power dual-deploy flight.
 SCHEMA = {
     "main_deploy_m": (250, 10, 5000, "m AGL", "main fires when the descending rocket is at or below this"),
-    "main_guard_s": (2.0, 0, 60, "s", "main never fires sooner than this after the drogue fired"),
+    "main_guard_s": (2.0, 0, 60, "s",
+        "main never fires sooner than this after the drogue fired; after a maximum altitude below "
+        "main_deploy_m + main_margin_m the main fires this long after the drogue"),
+    "main_margin_m": (50, 0, 1000, "m",
+        "the main fires by altitude only after a maximum altitude at least this far above "
+        "main_deploy_m (an under-performing flight must not land on its drogue)"),
+    "main_delay_s": (10, 1, 600, "s",
+        "no barometer (accelerometer-only board, or the barometer lost): the main fires this long "
+        "after the drogue; set it to (apogee - main altitude) / drogue descent rate"),
     "apogee_delay_s": (0, 0, 30, "s", "drogue fires this long after apogee is detected"),
     "apogee_lockout_s": (0, 0, 120, "s", "no apogee sooner than this after launch (0 = off)"),
     "backup_drogue_s": (0, 0, 600, "s",
@@ -23,9 +31,24 @@ SCHEMA = {
     "launch_accel_mps2": (20, 5, 500, "m/s^2",
         "boost: acceleration above 1 g sustained for launch_accel_time_s"),
     "launch_accel_time_s": (0.1, 0.02, 2, "s", "how long the boost acceleration must be sustained"),
+    "launch_height_m": (20, 5, 500, "m",
+        "launch also when the filtered height exceeds this at launch_speed_mps (low thrust-to-weight; "
+        "AltOS launches at 20 m); launching fires nothing without proof of flight"),
+    "launch_speed_mps": (10, 2, 300, "m/s", "launch by height: the filtered climb rate reached"),
     "proof_climb_m": (30, 5, 1000, "m",
         "proof of flight: the barometer must confirm this climb above the pad"),
-    "proof_speed_mps": (15, 5, 300, "m/s", "proof of flight (barometer-only): estimated climb rate reached"),
+    "proof_speed_mps": (15, 5, 300, "m/s",
+        "proof of flight: the boost integrated from the accelerometer reaches this speed (barometer-only: "
+        "the estimated climb rate); a shove of 4 g for 0.3 s gives 11.8 m/s"),
+    "proof_baro_climb_m": (100, 30, 1000, "m",
+        "proof of flight without the accelerometer: the barometer's climb held for a second; above "
+        "any pad pressure disturbance (offsets of 60 m; RRC3 arms at 100 ft)"),
+    "sensor_lost_s": (0.5, 0.05, 10, "s",
+        "a sensor without a usable reading for this long is lost: proof falls back to the other, "
+        "the decision mode leaves it out"),
+    "boost_gate_m": (100, 20, 1000, "m",
+        "from the first sample of boost, a barometric reading this far from the estimate is not used "
+        "(a glitch; resynchronised after 1 s)"),
     "coast_decel_mps2": (4.9, 1, 9.8, "m/s^2",
         "apogee needs the averaged deceleration to exceed this (coast ~ g)"),
     "max_boost_s": (15, 1, 60, "s", "boost ends after this even without burnout"),
@@ -50,7 +73,6 @@ SCHEMA = {
     "baro_stuck_s": (1.0, 0.2, 10, "s", "identical barometer readings for this long in flight: frozen"),
     "accel_stuck_s": (0.5, 0.1, 10, "s",
         "identical accelerometer readings for this long while above 1 g (noise expected): frozen"),
-    "sensor_timeout_s": (0.5, 0.05, 10, "s", "no fresh reading of a sensor for this long: lost"),
     "baro_rate_max_mps": (1500, 100, 5000, "m/s",
         "a barometric reading that moved faster than this from the previous one is a spike"),
     "mach_lockout_s": (0, 0, 120, "s",
@@ -72,6 +94,10 @@ class ConfigError(ValueError):
     """A configuration problem; the message is one line naming the key."""
 
 
+class ConfigFileMissing(ConfigError):
+    """The configuration file cannot be read (the board then flies the defaults)."""
+
+
 class Config:
     """Validated configuration in integer units (mm, mm/s, mm/s^2, ms)."""
 
@@ -80,12 +106,19 @@ class Config:
         v = values
         self.main_deploy_mm = int(v["main_deploy_m"] * 1000)
         self.main_guard_ms = int(v["main_guard_s"] * 1000)
+        self.main_margin_mm = int(v["main_margin_m"] * 1000)
+        self.main_delay_ms = int(v["main_delay_s"] * 1000)
         self.apogee_delay_ms = int(v["apogee_delay_s"] * 1000)
         self.apogee_lockout_ms = int(v["apogee_lockout_s"] * 1000)
         self.backup_drogue_ms = int(v["backup_drogue_s"] * 1000)
         self.pulse_ms = int(v["pulse_ms"])
         self.launch_accel_mmps2 = int(v["launch_accel_mps2"] * 1000)
         self.launch_accel_ms = int(v["launch_accel_time_s"] * 1000)
+        self.launch_height_mm = int(v["launch_height_m"] * 1000)
+        self.launch_speed_mmps = int(v["launch_speed_mps"] * 1000)
+        self.proof_baro_climb_mm = int(v["proof_baro_climb_m"] * 1000)
+        self.sensor_lost_ms = int(v["sensor_lost_s"] * 1000)
+        self.boost_gate_mm = int(v["boost_gate_m"] * 1000)
         self.proof_climb_mm = int(v["proof_climb_m"] * 1000)
         self.proof_speed_mmps = int(v["proof_speed_mps"] * 1000)
         self.coast_decel_mmps2 = int(v["coast_decel_mps2"] * 1000)
@@ -105,7 +138,6 @@ class Config:
         self.baro_consistency_mmps = int(v["baro_consistency_mps"] * 1000)
         self.baro_stuck_ms = int(v["baro_stuck_s"] * 1000)
         self.accel_stuck_ms = int(v["accel_stuck_s"] * 1000)
-        self.sensor_timeout_ms = int(v["sensor_timeout_s"] * 1000)
         self.baro_rate_max_mmps = int(v["baro_rate_max_mps"] * 1000)
         self.mach_lockout_ms = int(v["mach_lockout_s"] * 1000)
         self.main_backup_ms = int(v["main_backup_s"] * 1000)
@@ -160,7 +192,7 @@ def load_config_file(path):
         with open(path) as f:
             text = f.read()
     except OSError as exc:
-        raise ConfigError("config: cannot read %s: %s" % (path, exc)) from None
+        raise ConfigFileMissing("config: cannot read %s: %s" % (path, exc)) from None
     try:
         values = json.loads(text)
     except ValueError as exc:

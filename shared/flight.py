@@ -30,10 +30,13 @@ Transitions (``_transition``), each branch opening with its rule:
 | coast | fast | estimated speed above the Mach lockout | `mach_lockout_mps` |
 | boost..coast | drogue | proven, and apogee (+ delay) or the backup timer | `apogee_delay_s`, |
 | | | | `backup_drogue_s` |
-| drogue | main | proven, at or below the main altitude, descending, the | `main_deploy_m`, |
-| | | guard time after the drogue (barometer usable) | `main_guard_s` |
-| drogue | main | barometer lost or frozen: the last steady descent reaches | `main_backup_s` |
-| | | the main altitude, or main_backup_s after the drogue | |
+| drogue | main | proven, the guard time after the drogue, descending; at or | `main_deploy_m`, |
+| | | below the main altitude if the maximum rose `main_margin_m` | `main_guard_s`, |
+| | | above it, else at once (barometer usable) | `main_margin_m` |
+| drogue | main | barometer lost or frozen: the last steady descent reaches | `main_delay_s`, |
+| | | the main altitude (none seen: `main_delay_s` after the drogue), | `main_backup_s` |
+| | | or main_backup_s after the drogue; no barometer on the board: | |
+| | | `main_delay_s` after the drogue | |
 | main | landed | altitude within a band over a window | `landed_alt_m` |
 
 Apogee itself is declared by the filter's rule only while ``_apogee_enabled()``: coast, proven,
@@ -41,7 +44,7 @@ above the proof climb, after the lockout, an averaged deceleration between ``coa
 and 10 g, and the accelerometer's lowest possible velocity at or below ``apogee_guard_mps``.
 Without a usable barometer (``mode`` accel only) apogee is the accelerometer's highest possible
 velocity reaching zero (``_accel_only_apogee``). The decision mode and the barometer's
-exclusion come from ``_arbitrate`` (docs/DESIGN.md D13).
+exclusion come from ``_arbitrate`` (docs/DESIGN.md D15).
 
 Safety (docs/DESIGN.md D1): every firing path (apogee, apogee delay, backup timer,
 main) requires ``flight_proven``: a boost sustained for ``launch_accel_time_s`` *and* a climb of
@@ -71,10 +74,11 @@ from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
     ERR_BARO_ERRATIC,
     ERR_ORIENTATION,
     ERR_PAD_BARO_STEP,
-    G_MMPS2,
+    PAD_BARO_JUMP_MM,
     PAD_ERRORS,
     PadCalibration,
 )
+from shared.physics import G_MMPS2
 
 # States, in flight order.
 PAD = const(0)
@@ -135,11 +139,20 @@ _STEADY_ACC_MMPS2 = const(2000)
 _STEADY_RATE_MMPS = const(3000)
 _STEADY_MIN_DS = const(20)  # 2 s of steady descent give its mean rate
 
-_RECORD_FORMAT = "<BBBiiiiiiiiiiiiiiiii"
-_RECORD_VERSION = const(1)
-STATE_RECORD_SIZE = const(71)  # struct.calcsize(_RECORD_FORMAT)
+_RECORD_FORMAT = "<IIII"
+_RECORD_VERSION = const(2)
+STATE_RECORD_SIZE = const(16)  # struct.calcsize(_RECORD_FORMAT): the RP2040's four scratch words
 _RESUME_SETTLE_MS = const(2000)
 _FALSE_LAUNCH_MS = const(10000)  # a launch not proven within this, near the pad, was not one
+# The accelerometer's own account of the boost (proof of flight): the kinematic acceleration is
+# integrated from the first sample of a push above this on the pad (or from launch), signed, until
+# proof. Bounds keep every product inside 31 bits: |a| < 2**20 mm/s^2 (107 g), dt <= 1000 ms,
+# |v| < 2**20 mm/s (1 km/s: the proof speed is tens of m/s).
+_PUSH_MMPS2 = const(4903)  # 0.5 g: a motor lighting; well above pad noise and the 1 g calibration error
+_INT_LIMIT = const(0xFFFFF)
+# Both sensors: during the proof hold the barometer's climb and the accelerometer's integrated
+# height agree within 10 m + 1/4 of the climb (tilt up to 40 degrees, barometer lag, calibration).
+_AGREE_MM = const(10000)
 
 # Error flags in ``errors`` (ERR_ORIENTATION, ERR_PAD_BARO_STEP and ERR_BARO_ERRATIC come from
 # shared/padcal.py).
@@ -202,6 +215,17 @@ class FlightComputer:
         self.flight_proven = False
         self.climb_ms = 0  # time above proof_climb_m, less the time below since (barometer)
         self.launch_ms = 0
+        self.launch_by_height = False  # launched on height and speed, not on the boost
+        self.acc_dv_mmps = 0  # speed integrated from the accelerometer since the push began
+        self.acc_dv_max_mmps = 0
+        self.acc_h_mm = 0  # height integrated from it
+        self.acc_clipped = False  # a clipped reading entered them: they are lower bounds
+        self.acc_meas_avg = 0  # averaged measured kinematic acceleration, mm/s^2 (apogee gate)
+        # the accelerometer itself has shown a coast (averaged at or below -coast_decel_mps2 after
+        # launch): a rocket standing on the pad reads +1 g and never does; once seen, the board's
+        # later shocks (ejection, a tumble) do not undo it
+        self.coast_measured = False
+        self.acc_account = True  # False after a resume: the integrals above restarted mid-flight
         self.burnout_ms = 0
         self.max_agl_mm = 0
         self.max_vel_mmps = 0
@@ -223,6 +247,7 @@ class FlightComputer:
         self.vel_mmps = 0
         self.settle_until_ms = 0  # after a resume: no apogee decision before this
         self._resume_pending = False
+        self._gap_us = 0  # after a resume: the time the reset cost, predicted across
 
     @property
     def ground_fixed(self):
@@ -240,8 +265,11 @@ class FlightComputer:
         """Process one sample; see the module docstring for units and outputs."""
         cfg = self.cfg
         self.events = 0
+        if self._gap_us:
+            dt_us += self._gap_us
+            self._gap_us = 0
         health = self.health
-        have = health.judge(accel_mmps2, have)
+        have = health.judge(alt_mm, accel_mmps2, have)
         if not self.started:
             self.started = True
             self.det.start(self.pad.start(alt_mm, have), 0)
@@ -251,11 +279,13 @@ class FlightComputer:
             total = self._us_rem + dt_us
             self.now_ms += total // 1000
             self._us_rem = total % 1000
+        health.age(dt_us // 1000, have)
         state = self.state
         have = health.watch(self.now_ms, alt_mm, accel_mmps2, have, self.launched and state <= DROGUE)
         if health.changed:
             self.events |= EV_HEALTH
         clipped = health.clipped
+        measured_acc = have & HAVE_ACCEL  # a usable reading, before the phase's own choice
         if clipped:
             self.errors |= ERR_ACCEL_CLIPPED
         if state == PAD:
@@ -283,6 +313,9 @@ class FlightComputer:
         if state >= FAST and not settling:
             self.det.gate_alt_mm = GATE_ALT_MM
             self.det.gate_acc_mmps2 = GATE_ACC_MMPS2
+        elif state == BOOST and not resuming:
+            self.det.gate_alt_mm = cfg.boost_gate_mm  # a wide gate from the first sample of boost
+            self.det.gate_acc_mmps2 = 0
         else:
             self.det.gate_alt_mm = 0
             self.det.gate_acc_mmps2 = 0
@@ -321,6 +354,12 @@ class FlightComputer:
                 self._good_ms = self.now_ms
         self._update_averages(dt_us)
         self._update_boost(dt_us, acc_kin, have, clipped)
+        if measured_acc or clipped:
+            self._integrate_accel(dt_us // 1000, acc_kin, clipped)
+        if measured_acc:
+            self.acc_meas_avg = _ema(self.acc_meas_avg, acc_kin, dt_us // 1000, _DECEL_TAU_MS)
+            if state != PAD and self.acc_meas_avg <= -cfg.coast_decel_mmps2:
+                self.coast_measured = True
         self._transition(apogee)
         self._check_proof(dt_us // 1000)
         self._pyro()
@@ -368,7 +407,8 @@ class FlightComputer:
                 and self.now_ms - self.launch_ms >= cfg.apogee_lockout_ms
                 and self.agl_mm >= cfg.proof_climb_mm
                 and not (self.arb.valid and self.arb.lower_mmps() > cfg.apogee_guard_mmps)
-                and cfg.coast_decel_mmps2 << 4 <= -self.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4)
+                and cfg.coast_decel_mmps2 << 4 <= -self.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
+                and (self.coast_measured or not self.health.accel_ok))
 
     def _update_averages(self, dt_us):
         self.acc_avg_q4 = _ema(self.acc_avg_q4, self.kf.acc_q4, dt_us // 1000, _DECEL_TAU_MS)
@@ -384,8 +424,45 @@ class FlightComputer:
         else:
             self.boost_ms = 0
 
+    def _integrate_accel(self, dt_ms, acc_kin, clipped):
+        """The accelerometer's own account of the boost, until proof: speed and height integrated
+        from the first sample of a push on the pad (reset while the pad is quiet), signed."""
+        if self.flight_proven:
+            return
+        if self.state == PAD and acc_kin <= _PUSH_MMPS2:
+            self.acc_dv_mmps = self.acc_dv_max_mmps = self.acc_h_mm = 0
+            self.acc_clipped = False
+            return
+        if clipped:
+            self.acc_clipped = True
+        if dt_ms > 1000:
+            dt_ms = 1000
+        if acc_kin > _INT_LIMIT:
+            acc_kin = _INT_LIMIT
+        elif acc_kin < -_INT_LIMIT:
+            acc_kin = -_INT_LIMIT
+        dv = self.acc_dv_mmps + acc_kin * dt_ms // 1000
+        if dv > _INT_LIMIT:
+            dv = _INT_LIMIT
+        elif dv < -_INT_LIMIT:
+            dv = -_INT_LIMIT
+        self.acc_dv_mmps = dv
+        if dv > self.acc_dv_max_mmps:
+            self.acc_dv_max_mmps = dv
+        h = self.acc_h_mm + dv * dt_ms // 1000
+        if -_INT_LIMIT << 8 < h < _INT_LIMIT << 8:
+            self.acc_h_mm = h
+
     def _check_proof(self, dt_ms):
-        """flight_proven, once true, stays true (every firing path requires it)."""
+        """flight_proven, once true, stays true (every firing path requires it).
+
+        Both sensors: the barometer's own reading holds proof_climb_m for a second, and the
+        accelerometer's account of the boost agrees: its integrated speed reached proof_speed_mps
+        and its integrated height proof_climb_m (a shove or a knock on the rail gives a few m/s; a
+        pressure offset, a gust or a hand on the port moves no accelerometer). Barometer only (by
+        configuration, or the accelerometer lost before proof): proof_baro_climb_m held, above any
+        pad pressure disturbance, at proof_speed_mps. Accelerometer only (or the barometer lost):
+        the filter's climb held, at proof_speed_mps, after a boost of 0.3 s."""
         if self.agl_mm > self.max_agl_mm:
             self.max_agl_mm = self.agl_mm
         if self.vel_mmps > self.max_vel_mmps:
@@ -393,23 +470,38 @@ class FlightComputer:
         if self.flight_proven or not self.launched:
             return
         cfg = self.cfg
-        # the barometer's own reading, not the filter (a stuck accelerometer drags the filter up)
-        climb_mm = self.baro_agl_mm if cfg.has_baro else self.agl_mm
-        if climb_mm >= cfg.proof_climb_mm:
+        baro_ok = self.health.baro_ok
+        accel_ok = self.health.accel_ok and self.acc_account
+        if baro_ok:
+            # the barometer's own reading, not the filter (a stuck accelerometer drags it up)
+            climb_mm = self.baro_agl_mm
+            line_mm = cfg.proof_climb_mm if accel_ok else cfg.proof_baro_climb_mm
+        else:
+            climb_mm = self.agl_mm
+            line_mm = cfg.proof_climb_mm
+        agree = True
+        if baro_ok and accel_ok:
+            diff = climb_mm - self.acc_h_mm
+            agree = -_AGREE_MM - (climb_mm >> 2) <= diff and (
+                self.acc_clipped or diff <= _AGREE_MM + (climb_mm >> 2))  # clipped: a lower bound
+        if climb_mm >= line_mm and agree:
             self.climb_ms += dt_ms
         elif self.climb_ms > dt_ms:
             self.climb_ms -= dt_ms  # a noisy reading below the line costs only its own time
         else:
             self.climb_ms = 0
         # a climb that lasts: a pressure transient (ejection, venting, a knock) decays in tenths
-        # of a second, a rocket stays above a few tens of metres for seconds. Without one of the
-        # sensors the climb must also have been fast (the barometer alone cannot tell a boost;
-        # the accelerometer alone measures the climb only by integration).
+        # of a second, a rocket stays above a few tens of metres for seconds
         proven = self.climb_ms >= _PROOF_HOLD_MS
-        if not (cfg.has_baro and cfg.has_accel):
+        if baro_ok and accel_ok:
+            proven = proven and self.acc_dv_max_mmps >= cfg.proof_speed_mmps
+        elif baro_ok:
             proven = proven and self.max_vel_mmps >= cfg.proof_speed_mmps
-        if not cfg.has_baro:
-            proven = proven and self.boost_max_ms >= _ACCEL_ONLY_BOOST_MS
+        elif accel_ok:
+            proven = (proven and self.max_vel_mmps >= cfg.proof_speed_mmps
+                      and self.boost_max_ms >= _ACCEL_ONLY_BOOST_MS)
+        else:
+            proven = False
         self.flight_proven = proven
 
     def _transition(self, apogee):
@@ -421,15 +513,13 @@ class FlightComputer:
             # refused while the board is not upright or the barometer is erratic
             if self.errors & (ERR_ORIENTATION | ERR_BARO_ERRATIC):
                 return
-            if cfg.has_accel:
-                launch = self.boost_ms >= cfg.launch_accel_ms
-            else:
-                launch = self.agl_mm >= cfg.proof_climb_mm and self.vel_mmps >= cfg.proof_speed_mmps
-            if launch:
-                self.launched = True
-                self.launch_ms = self.now_ms
-                self.state = BOOST
-                self.events |= EV_LAUNCH
+            # or the height and speed (low thrust-to-weight, barometer-only boards)
+            boost = cfg.has_accel and self.boost_ms >= cfg.launch_accel_ms
+            # (with an accelerometer, while it pushes: its integral reached launch_speed_mps)
+            height = (self.agl_mm >= cfg.launch_height_mm and self.vel_mmps >= cfg.launch_speed_mmps
+                      and (not self.health.accel_ok or self.acc_dv_mmps >= cfg.launch_speed_mmps))
+            if boost or height:
+                self._launch(not boost)
         elif state <= COAST:
             # ascent: back to the pad without proof (_false_launch); burnout; the Mach lockout;
             # then apogee and the drogue
@@ -450,16 +540,39 @@ class FlightComputer:
                 self.state = FAST
             self._drogue_rule(apogee)
         elif state == DROGUE:
-            # main: proven, at or below the main altitude, descending, after the guard time
-            if (self.flight_proven and self.agl_mm <= cfg.main_deploy_mm and self.vel_mmps < 0
-                    and self.now_ms - self.drogue_fired_ms >= cfg.main_guard_ms
-                    and (self.mode & MODE_BARO or not cfg.has_baro)):
-                self._fire_main()
-            elif self._main_due_without_baro():
+            # main: proven, after the guard time; at or below the main altitude descending when the
+            # flight rose main_margin_m above it; without a usable barometer _main_due_without_baro
+            since_ms = self.now_ms - self.drogue_fired_ms
+            if not self.flight_proven or since_ms < cfg.main_guard_ms:
+                main = False
+            elif not self.mode & MODE_BARO:
+                main = self._main_due_without_baro(since_ms)
+            elif self.vel_mmps >= 0:
+                main = False  # still climbing (a drogue on the backup timer): its maximum is to come
+            elif self.max_agl_mm >= cfg.main_deploy_mm + cfg.main_margin_mm:
+                main = self.agl_mm <= cfg.main_deploy_mm
+            else:
+                main = True  # it never rose clear of the main altitude: do not land on the drogue
+            if main:
                 self._fire_main()
             self._landing_rule()
         elif state == MAIN:
             self._landing_rule()
+
+    def _launch(self, by_height):
+        """Leave the pad. The ground is the reference from the samples ending at least 0.2 s
+        before (a bad reading on this sample re-based it: the filter goes back with it)."""
+        self.launched = True
+        self.launch_by_height = by_height
+        self.launch_ms = self.now_ms
+        self.state = BOOST
+        self.events |= EV_LAUNCH
+        ground = self.pad.launch_ground()
+        jump = self.ground_alt_mm - ground
+        if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
+            self.kf.set_altitude(ground)
+        self.ground_alt_mm = ground
+        self.agl_mm = (self.kf.alt_q4 >> 4) - ground
 
     def _drogue_rule(self, apogee):
         """Ascent: record apogee; fire the drogue (proven) when its delay is over, or on the
@@ -476,23 +589,35 @@ class FlightComputer:
                 self._fire_drogue()
 
     def _false_launch(self):
-        """A launch that has not proven a flight within _FALSE_LAUNCH_MS while the rocket is still
-        near the pad (a push on the rail, a drop) goes back to pad mode, with its calibration."""
+        """A launch that has not proven a flight within _FALSE_LAUNCH_MS while the rocket is near
+        the pad (a push on the rail, a drop) or at rest (a pressure offset that stays: the av-bay
+        sealed) goes back to pad mode, with its calibration. An unproven flight fires nothing, so
+        going back to the pad in the air costs nothing."""
         cfg = self.cfg
         if self.flight_proven or self.now_ms - self.launch_ms < _FALSE_LAUNCH_MS:
             return False
-        if cfg.has_baro:
+        baro_ok = self.health.baro_ok
+        if baro_ok:
             near = -cfg.proof_climb_mm < self.baro_agl_mm < cfg.proof_climb_mm
         else:
             near = -cfg.proof_speed_mmps < self.vel_mmps < cfg.proof_speed_mmps
-        if not near:
+        # at rest: no climb (measured: the barometer's rate, else the accelerometer-only filter's;
+        # the coast clamp keeps the filter from resting), and (with an accelerometer) standing at
+        # 1 g, not coasting at 0 g
+        rate_mmps = self.arb.baro_rate_mmps if baro_ok else self.vel_mmps
+        at_rest = -cfg.launch_speed_mmps < rate_mmps < cfg.launch_speed_mmps and (
+            not self.health.accel_ok or -_PUSH_MMPS2 < self.acc_meas_avg < _PUSH_MMPS2)
+        if not (near or at_rest):
             return False
         self.state = PAD
         self.launched = False
         self.boost_ms = self.boost_max_ms = self.climb_ms = 0
         self.max_agl_mm = self.max_vel_mmps = 0
+        self.acc_dv_mmps = self.acc_dv_max_mmps = self.acc_h_mm = 0
+        self.acc_clipped = False
+        self.coast_measured = False
         self.errors |= ERR_FALSE_LAUNCH
-        self.kf.reset(self.ground_alt_mm + self.baro_agl_mm if cfg.has_baro else self.kf.alt_q4 >> 4)
+        self.kf.reset(self.ground_alt_mm + self.baro_agl_mm if baro_ok else self.kf.alt_q4 >> 4)
         return True
 
     def _fire_drogue(self):
@@ -595,16 +720,12 @@ class FlightComputer:
         return arb.upper_mmps() <= 0 or (
             self._filter_anchored and arb.anchored_upper_mmps() <= 0)
 
-    def _main_due_without_baro(self):
-        """Barometer lost or frozen under the drogue: the main fires when the last barometric
-        reading that moved and the descent rate then predict the main altitude, and at
-        ``main_backup_s`` after the drogue at the latest."""
+    def _main_due_without_baro(self, since_drogue_ms):
+        """Barometer lost or frozen under the drogue (proven, after the guard time): the main fires
+        when the last barometric reading that moved and the steady descent rate then predict the
+        main altitude; without such a descent (no barometer on the board, or none seen)
+        ``main_delay_s`` after the drogue; at ``main_backup_s`` after the drogue at the latest."""
         cfg = self.cfg
-        if not cfg.has_baro or self.mode & MODE_BARO or not self.flight_proven:
-            return False
-        since_drogue_ms = self.now_ms - self.drogue_fired_ms
-        if since_drogue_ms < cfg.main_guard_ms:
-            return False
         if cfg.main_backup_ms and since_drogue_ms >= cfg.main_backup_ms:
             return True
         # the mean rate of the steady descent seen (decimetres and tenths of a second: the
@@ -612,44 +733,75 @@ class FlightComputer:
         fell_dm = (self._steady_agl_mm - self._good_agl_mm) // 100
         took_ds = (self._good_ms - self._steady_ms) // 100
         if self._steady_ms < 0 or took_ds < _STEADY_MIN_DS or fell_dm * 10 < took_ds * _DESCENT_MIN_MMPS // 1000:
-            return False  # no steady descent seen: no prediction
+            return since_drogue_ms >= cfg.main_delay_ms  # no steady descent seen: no prediction
         drop_dm = (self._good_agl_mm - cfg.main_deploy_mm) // 100
         return drop_dm <= 0 or self.now_ms - self._good_ms >= drop_dm * took_ds // fell_dm * 100
 
-    # Resume after a reset in flight (docs/DESIGN.md D3). The device writes this record to
-    # memory that survives a reset (RTC memory, or a small flash record) at launch and at every
-    # event; on boot it restores it and carries on instead of calibrating "ground" at altitude.
-    # Fields: version, state, flags (launched, proven, fired drogue, fired main), now_ms,
-    # launch_ms, burnout_ms, apogee_ms, drogue_due_ms, drogue_fired_ms, main_fired_ms,
-    # ground_alt_mm, one_g_mmps2, max_agl_mm, alt_q4, vel_q4, acc_q4, bias_q4, errors,
-    # acc_avg_q4, max_vel_mmps. The device saves it at every event and every 0.1 s in flight.
-    # A reset costs an unknown time, so after a restore the filter re-converges for
-    # _RESUME_SETTLE_MS (altitude taken from the first barometric reading, no gates, no apogee
-    # decision; the backup timer and main still work) before apogee may be declared.
+    # Resume after a reset in flight (docs/DESIGN.md D3, D14). The record is the smallest that
+    # allows a safe resume: four words of 30 bits (16 bytes: the RP2040's four free watchdog
+    # scratch registers; ESP32 RTC memory; or a file), each a non-negative small int so that
+    # packing allocates nothing on a 32-bit board:
+    #   w0: version (3) | state (3) | flags (4: launched, proven, drogue fired, main fired)
+    #       | errors (5) | check (15)
+    #   w1: time since launch in 10 ms (22: 11.6 h) | pad 1 g - 9807 in 16 mm/s^2, +128 (8)
+    #   w2: ground altitude in 0.5 m, +2**17 (18: +-65 km) | velocity in m/s, +2048 (12)
+    #   w3: maximum altitude above the pad in 2 m (14: 32 km) | drogue time since launch in
+    #       0.1 s (16; fired, or due after an apogee; 0xFFFF none)
+    # The altitude is not kept: the first barometric reading gives it. The device saves the record
+    # every 0.1 s in flight; a reset costs time the board cannot see, so the device passes the
+    # worst case (``gap_ms``: the boot time plus, after a watchdog reset, its timeout) and the
+    # filter predicts across it. The filter then re-converges for _RESUME_SETTLE_MS (altitude from
+    # the barometer, no gates, no apogee decision; the timers and the main still work), and a proof
+    # still owed comes from one sensor (the accelerometer's integrals restarted).
 
     def save_state(self, buf):
         """Pack the flight's state into ``buf`` (bytearray of STATE_RECORD_SIZE); no allocation."""
-        kf = self.kf
         flags = (self.launched | self.flight_proven << 1 | (self.drogue_fired_ms >= 0) << 2
                  | (self.main_fired_ms >= 0) << 3)
-        struct.pack_into(_RECORD_FORMAT, buf, 0, _RECORD_VERSION, self.state, flags, self.now_ms,
-                         self.launch_ms, self.burnout_ms, self.apogee_ms, self.drogue_due_ms,
-                         self.drogue_fired_ms, self.main_fired_ms, self.ground_alt_mm,
-                         self.one_g_mmps2, self.max_agl_mm, kf.alt_q4, kf.vel_q4, kf.acc_q4,
-                         kf.bias_q4, self.errors, self.acc_avg_q4, self.max_vel_mmps)
+        t10 = _field((self.now_ms - self.launch_ms) // 10, 0x3FFFFF)
+        one_g = _field((self.one_g_mmps2 - G_MMPS2) // 16 + 128, 0xFF)
+        w1 = t10 << 8 | one_g
+        ground = _field(self.ground_alt_mm // 500 + 0x20000, 0x3FFFF)
+        vel = _field(self.vel_mmps // 1000 + 2048, 0xFFF)
+        w2 = ground << 12 | vel
+        drogue_ms = self.drogue_fired_ms if self.drogue_fired_ms >= 0 else self.drogue_due_ms
+        drogue = _field((drogue_ms - self.launch_ms) // 100, 0xFFFE) if drogue_ms >= 0 else 0xFFFF
+        w3 = _field(self.max_agl_mm // 2000, 0x3FFF) << 16 | drogue
+        head = _RECORD_VERSION << 12 | self.state << 9 | flags << 5 | (self.errors & 31)
+        w0 = head << 15 | _check(head, w1, w2, w3)
+        struct.pack_into(_RECORD_FORMAT, buf, 0, w0, w1, w2, w3)
 
-    def restore_state(self, buf):
-        """Resume from a record written by ``save_state``. Returns False (and changes nothing) if
-        the record is not a valid in-flight record of this version."""
-        fields = struct.unpack_from(_RECORD_FORMAT, buf, 0)
-        if fields[0] != _RECORD_VERSION or not PAD < fields[1] <= LANDED:
+    def restore_state(self, buf, gap_ms=0):
+        """Resume from a record written by ``save_state``, ``gap_ms`` after it was written. Returns
+        False (and changes nothing) if the record is not a valid in-flight record."""
+        w0, w1, w2, w3 = struct.unpack_from(_RECORD_FORMAT, buf, 0)
+        head = w0 >> 15
+        state = head >> 9 & 7
+        if head >> 12 != _RECORD_VERSION or w0 & 0x7FFF != _check(head, w1, w2, w3) or not (
+                PAD < state <= LANDED):
             return False
-        (_, self.state, flags, self.now_ms, self.launch_ms, self.burnout_ms, self.apogee_ms,
-         self.drogue_due_ms, self.drogue_fired_ms, self.main_fired_ms, self.ground_alt_mm,
-         self.one_g_mmps2, self.max_agl_mm, alt_q4, vel_q4, acc_q4, bias_q4, self.errors,
-         self.acc_avg_q4, self.max_vel_mmps) = fields
+        flags = head >> 5 & 15
+        self.state = state
+        self.errors = head & 31
         self.launched = bool(flags & 1)
         self.flight_proven = bool(flags & 2)
+        self.launch_ms = 0
+        self.now_ms = (w1 >> 8) * 10
+        self.burnout_ms = self.now_ms
+        self.one_g_mmps2 = G_MMPS2 + ((w1 & 0xFF) - 128) * 16
+        self.ground_alt_mm = ((w2 >> 12) - 0x20000) * 500
+        vel_mmps = ((w2 & 0xFFF) - 2048) * 1000
+        self.max_agl_mm = (w3 >> 16) * 2000
+        self.max_vel_mmps = vel_mmps if vel_mmps > 0 else 0
+        drogue = w3 & 0xFFFF
+        if flags & 4:
+            self.drogue_fired_ms = drogue * 100
+            self.apogee_ms = self.drogue_fired_ms
+        elif drogue != 0xFFFF:
+            self.drogue_due_ms = drogue * 100
+            self.apogee_ms = self.drogue_due_ms - self.cfg.apogee_delay_ms
+        if flags & 8:
+            self.main_fired_ms = self.now_ms
         pad = self.pad
         pad.ground_fixed = True
         pad.ground_alt_mm = self.ground_alt_mm
@@ -657,10 +809,29 @@ class FlightComputer:
         pad.errors = self.errors & PAD_ERRORS
         self.started = True
         kf = self.kf
-        kf.alt_q4, kf.vel_q4, kf.acc_q4, kf.bias_q4 = alt_q4, vel_q4, acc_q4, bias_q4
+        kf.reset(self.ground_alt_mm + self.max_agl_mm, vel_mmps,
+                 -G_MMPS2 if FAST <= state <= COAST else 0)
+        self.agl_mm = self.max_agl_mm
+        self.vel_mmps = vel_mmps
         self.det.dt_us = -1
-        self.settle_until_ms = self.now_ms + _RESUME_SETTLE_MS
+        self._gap_us = gap_ms * 1000  # the next step predicts across the reset
+        self.settle_until_ms = self.now_ms + gap_ms + _RESUME_SETTLE_MS
+        self.acc_account = False  # proof, if still owed, from one sensor alone
         self._resume_pending = True
         self._land_start_ms = self.now_ms
-        self._land_min_mm = self._land_max_mm = (alt_q4 >> 4) - self.ground_alt_mm
+        self._land_min_mm = self._land_max_mm = self.max_agl_mm
         return True
+
+
+def _field(value, top):
+    """``value`` clamped to 0..top (a record field)."""
+    if value < 0:
+        return 0
+    if value > top:
+        return top
+    return value
+
+
+def _check(head, w1, w2, w3):
+    """15-bit check of a resume record (a blank or torn record fails it)."""
+    return (head ^ w1 ^ (w1 >> 15) ^ w2 ^ (w2 >> 15) ^ w3 ^ (w3 >> 15) ^ 0x5A5A) & 0x7FFF

@@ -2,17 +2,24 @@
 
 Portable and allocation-free per sample. ``SensorHealth.judge()`` takes the sample's ``have``
 mask (``shared.detector.HAVE_BARO | HAVE_ACCEL``) and returns the mask of the readings that may
-be used: a sensor the board does not have (``sensors`` in the configuration) is never used, and
-an accelerometer reading at its full scale under-reads, so the sample uses the barometer alone.
+be used:
 
-``SensorHealth.watch()`` then judges each sensor over time (docs/DESIGN.md, "Sensor
+- a sensor the board does not have (``sensors`` in the configuration) is never used;
+- a barometric altitude at either end of the altitude table (a pressure outside 1 to 110 kPa:
+  a BMP280 returning 0, a broken bus) is out of range and not used;
+- an accelerometer reading at its full scale under-reads, so the sample uses the barometer alone.
+
+``age()`` then counts how long each sensor has gone without a usable reading; one without a
+usable reading for ``sensor_lost_s`` is lost (``baro_ok`` / ``accel_ok`` False), and the proof of
+flight falls back to the other sensor's (shared/flight.py).
+
+``SensorHealth.watch()`` then judges each sensor over time (docs/DESIGN.md D15, "Sensor
 arbitration"): frozen (identical readings for ``baro_stuck_s`` in flight; for the accelerometer
 ``accel_stuck_s`` while it reads more than 1 g, where noise and change are certain; a reading
-held at the largest of the flight is its full scale: clipped, not frozen), lost (no
-fresh reading for ``sensor_timeout_s``), and single readings that are impossible (a barometric
-altitude outside the atmosphere a rocket flies in, or one that moved faster than
-``baro_rate_max_mps`` from the previous reading). ``flags`` holds the HEALTH_* bits; a frozen or
-lost sensor's readings are not used while the condition lasts.
+held at the largest of the flight is its full scale: clipped, not frozen), lost (``age()``), and
+single readings that are impossible (one that moved faster than ``baro_rate_max_mps`` from the
+previous reading). ``flags`` holds the HEALTH_* bits; a frozen or lost sensor's readings are not
+used while the condition lasts.
 """
 
 try:
@@ -21,6 +28,8 @@ except ImportError:
     def const(x):
         return x
 
+from shared.altitude import pressure_to_alt_mm
+from shared.altitude_table import P_MAX_Q4, P_MIN_Q4
 from shared.detector import HAVE_ACCEL, HAVE_BARO
 
 HEALTH_BARO_STUCK = const(1)
@@ -31,10 +40,10 @@ HEALTH_BARO_BAD = const(3)  # HEALTH_BARO_STUCK | HEALTH_BARO_LOST
 HEALTH_ACCEL_BAD = const(12)  # HEALTH_ACCEL_STUCK | HEALTH_ACCEL_LOST
 HEALTH_NAMES = ("baro frozen", "baro lost", "accel frozen", "accel lost")
 
-# ISA altitudes of the barometer's physical range (1100 hPa and 10 hPa) widened by a margin: a
-# reading outside is a bus or conversion error, never weather or flight.
-_BARO_ALT_MIN_MM = const(-2000000)
-_BARO_ALT_MAX_MM = const(32000000)
+# The ends of the altitude table: shared.altitude clamps any pressure outside it to these.
+ALT_TOP_MM = pressure_to_alt_mm(P_MIN_Q4)
+ALT_BOTTOM_MM = pressure_to_alt_mm(P_MAX_Q4)
+_AGE_LIMIT_MS = 0x3FFFFFFF  # ages saturate here (days), inside 31 bits
 # A barometric step larger than baro_rate_max x dt plus this (the filter's 50 m outlier gate) in
 # one sample is a spike; beyond _RATE_DT_MAX_MS (a gap) no rate is judged.
 _SPIKE_ALLOW_MM = const(50000)
@@ -49,15 +58,24 @@ class SensorHealth:
         self.has_baro = config.has_baro
         self.has_accel = config.has_accel
         self.accel_limit_mmps2 = config.accel_limit_mmps2  # 0: full scale unknown, no check
+        self.lost_ms = config.sensor_lost_ms
         self.accel_clipped = 0  # count of clipped accelerometer readings
+        self.baro_out_of_range = 0  # count of barometric readings outside the table
         self.clipped = False  # this sample's accelerometer reading was clipped
+        self.baro_age_ms = 0  # time since the last usable reading
+        self.accel_age_ms = 0
+        self.baro_ok = config.has_baro  # the board has it and it is not lost
+        self.accel_ok = config.has_accel
 
-    def judge(self, accel_mmps2, have):
+    def judge(self, alt_mm, accel_mmps2, have):
         """The usable readings of this sample (``have`` minus what cannot be trusted)."""
         if not self.has_baro:
             have &= HAVE_ACCEL
         if not self.has_accel:
             have &= HAVE_BARO
+        if have & HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):
+            have &= HAVE_ACCEL  # an out-of-range pressure is not a reading
+            self.baro_out_of_range += 1
         limit = self.accel_limit_mmps2
         if have & HAVE_ACCEL and limit and (accel_mmps2 >= limit or accel_mmps2 <= -limit):
             have &= HAVE_BARO  # a clipped reading under-reads: use the barometer alone
@@ -71,7 +89,6 @@ class SensorHealth:
         """Thresholds and state of ``watch`` (called once, from the constructor's owner)."""
         self.baro_stuck_ms = config.baro_stuck_ms
         self.accel_stuck_ms = config.accel_stuck_ms
-        self.timeout_ms = config.sensor_timeout_ms
         self.baro_rate_max_mmps = config.baro_rate_max_mmps
         self.flags = 0
         self.changed = False  # flags changed at this sample
@@ -83,7 +100,6 @@ class SensorHealth:
         self._baro_run_ms = 0  # when the current run of identical readings began
         self._acc_last = 0
         self._acc_seen = False
-        self._acc_fresh_ms = 0
         self._acc_run_ms = 0
         self._acc_peak = 0  # the largest accelerometer reading in flight (mm/s^2)
 
@@ -99,8 +115,7 @@ class SensorHealth:
                 step = alt_mm - self._baro_last
                 if step < 0:
                     step = -step
-                if in_flight and not _BARO_ALT_MIN_MM < alt_mm < _BARO_ALT_MAX_MM or (
-                        in_flight and self._baro_seen and dt_ms <= _RATE_DT_MAX_MS
+                if (in_flight and self._baro_seen and dt_ms <= _RATE_DT_MAX_MS
                         and step > self.baro_rate_max_mmps * dt_ms // 1000 + _SPIKE_ALLOW_MM):
                     have &= HAVE_ACCEL
                     self.baro_spikes += 1
@@ -113,7 +128,7 @@ class SensorHealth:
             if in_flight and self._baro_seen and now_ms - self._baro_run_ms >= self.baro_stuck_ms:
                 flags |= HEALTH_BARO_STUCK
                 have &= HAVE_ACCEL
-            if now_ms - self._baro_fresh_ms >= self.timeout_ms:
+            if not self.baro_ok:  # age(): no usable reading for sensor_lost_s
                 flags |= HEALTH_BARO_LOST
         if self.has_accel:
             if have & HAVE_ACCEL:
@@ -132,12 +147,24 @@ class SensorHealth:
                     self._acc_run_ms = now_ms
                 self._acc_last = accel_mmps2
                 self._acc_seen = True
-                self._acc_fresh_ms = now_ms
             if in_flight and self._acc_seen and now_ms - self._acc_run_ms >= self.accel_stuck_ms:
                 flags |= HEALTH_ACCEL_STUCK
                 have &= HAVE_BARO
-            if now_ms - self._acc_fresh_ms >= self.timeout_ms:
+            if not self.accel_ok:
                 flags |= HEALTH_ACCEL_LOST
         self.changed = flags != self.flags
         self.flags = flags
         return have
+    def age(self, dt_ms, have):
+        """Count the time without a usable reading (``have`` as ``judge`` returned it)."""
+        if have & HAVE_BARO:
+            self.baro_age_ms = 0
+        elif self.baro_age_ms < _AGE_LIMIT_MS - dt_ms:
+            self.baro_age_ms += dt_ms
+        if have & HAVE_ACCEL or self.clipped:  # clipped: alive, at full scale
+            self.accel_age_ms = 0
+        elif self.accel_age_ms < _AGE_LIMIT_MS - dt_ms:
+            self.accel_age_ms += dt_ms
+        # a sensor silent for sensor_lost_s no longer proves anything
+        self.baro_ok = self.has_baro and self.baro_age_ms < self.lost_ms
+        self.accel_ok = self.has_accel and self.accel_age_ms < self.lost_ms

@@ -14,10 +14,10 @@ except ImportError:
         return x
 
 from shared.detector import HAVE_ACCEL, HAVE_BARO
+from shared.physics import G_MMPS2
 
 _CAL_BLOCK_MS = const(1000)
 _PAD_OFFSET_LIMIT_MM = const(0xFFFFF)  # 2**20 - 1: 1 km
-G_MMPS2 = const(9807)
 # The pad reading of the axis must be within 50% of 1 g (see check_orientation): a wrong part or
 # range, an inverted mount, or a board lying down (docs/DESIGN.md D4).
 _ONE_G_MIN = const(4903)
@@ -25,12 +25,24 @@ _ONE_G_MAX = const(14710)
 # On the pad a barometric jump larger than this (mm) is a pressure step (av-bay sealed, a gust,
 # a glitch), not a climb: the filter and the ground reference re-base on the new level.
 PAD_BARO_JUMP_MM = const(50000)
+# A pad sample pushing up (0.5 g above the 1 g reference) while the barometer reads a climb (3 m:
+# three times a quiet pad's noise) and the filter climbs (3 m/s) is not quiet: a rocket of low
+# thrust-to-weight (below launch_accel_mps2) must not calibrate its own boost into 1 g and the
+# ground. A board at rest that reads too much (a wrong range) does not climb: its orientation
+# check still sees it.
+_PUSH_MMPS2 = const(4903)
+_QUIET_CLIMB_MM = const(3000)
+_QUIET_SPEED_MMPS = const(3000)
 
 # Error flags (bits of FlightComputer.errors that this module owns).
 ERR_ORIENTATION = const(1)  # pad accelerometer reading is not about +1 g
 ERR_PAD_BARO_STEP = const(4)  # the barometer jumped on the pad (re-based)
 ERR_BARO_ERRATIC = const(8)  # repeated jumps on the pad: a faulty barometer; launch is forbidden
 PAD_ERRORS = const(13)  # ERR_ORIENTATION | ERR_PAD_BARO_STEP | ERR_BARO_ERRATIC
+# The ground at launch is the reference as it stood at least this long before the launch sample
+# (two history slots of _HISTORY_MS): ignition, first motion and a bad reading on the launch
+# sample itself (which the re-base above would take as the ground) never enter it.
+_HISTORY_MS = const(100)
 
 
 class PadCalibration:
@@ -57,16 +69,34 @@ class PadCalibration:
         self._all_alt = 0
         self._all_acc = 0
         self._all_n = 0
+        self._hist_ms = 0  # when the newest history slot was taken
+        self._hist0 = 0  # the ground reference at the last three 100 ms ticks, newest first
+        self._hist1 = 0
+        self._hist2 = 0
 
     def start(self, alt_mm, have):
         """First sample: the provisional ground is its barometric altitude. Returns that datum."""
         self._ref_mm = alt_mm if have & HAVE_BARO else 0
         if not self.ground_fixed:
             self.ground_alt_mm = self._ref_mm
+        self._hist0 = self._hist1 = self._hist2 = self.ground_alt_mm
         return self._ref_mm
+
+    def launch_ground(self):
+        """The ground reference from the samples ending at least 0.2 s before now (on a pad
+        shorter than that: the first sample's)."""
+        return self._hist2
+
+    def _history(self, now_ms):
+        if now_ms - self._hist_ms >= _HISTORY_MS:
+            self._hist2 = self._hist1
+            self._hist1 = self._hist0
+            self._hist0 = self.ground_alt_mm
+            self._hist_ms = now_ms
 
     def update(self, now_ms, alt_mm, accel_mmps2, have, kf):
         """Average a quiet pad sample into the references; re-base ``kf`` on a pressure step."""
+        self._history(now_ms)
         if have & HAVE_BARO:
             jump = alt_mm - (kf.alt_q4 >> 4)
             if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
@@ -88,13 +118,15 @@ class PadCalibration:
                 self.errors &= ~ERR_BARO_ERRATIC
         if have & HAVE_ACCEL:
             limit = self.launch_accel_mmps2
-            quiet = -limit < accel_mmps2 - self.one_g_mmps2 < limit
+            acc_kin = accel_mmps2 - self.one_g_mmps2
+            if not -limit < acc_kin < limit:
+                return
+            if (acc_kin > _PUSH_MMPS2 and have & HAVE_BARO and kf.vel_q4 >> 4 > _QUIET_SPEED_MMPS
+                    and alt_mm - self.ground_alt_mm > _QUIET_CLIMB_MM):
+                return  # climbing under a push: a slow boost
             acc = accel_mmps2
         else:
-            quiet = True
             acc = G_MMPS2
-        if not quiet:
-            return
         d_alt = alt_mm - self._ref_mm if have & HAVE_BARO else 0
         # bounded so that a block's sum stays in 31 bits (1 km x 200 samples at 200 Hz) even if
         # the board sits in pad mode while the barometer sees a flight (launch refused)

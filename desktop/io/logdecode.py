@@ -1,13 +1,16 @@
 """Decode a board's flight log (``flight.log``) into a flight CSV: ``python -m desktop logdecode``.
 
 The log format is defined in ``shared/logformat.py``. The decoder checks every block (magic, CRC,
-sequence number), keeps the records of the flight computer that was in use at the end of the log
+sequence number) and reports every problem and every gap in the samples; a damaged header costs
+only the header (the blocks are found by their magic and CRC, and the configuration is reported
+unknown). It keeps the records of the flight computer that was in use at the end of the log
 (the board starts a fresh one every few seconds on the pad: ``device/flightloop.py``, "pad
 epochs"), and writes them as a flight CSV (docs/FLIGHT_CSV.md) that replays through the same
 ``shared/`` code bit for bit:
 
-- ``time_s``: the sum of the board's integer ``dt_us``, 0 at the launch sample (or at the first
-  row without a launch): exact microseconds;
+- ``time_s``: the sum of the board's integer ``dt_us``, plus one sample period for every sample
+  missing from the log (a lost block keeps its time: the replay predicts across the gap), 0 at the
+  launch sample (or at the first row without a launch): exact microseconds;
 - ``pressure_pa``: the board's Pa x 16 reading divided by 16, written with 4 decimals (exact), empty
   where the sample had no fresh barometer reading;
 - ``accel_mps2``: the board's mm/s^2 reading / 1000 (exact at 4 decimals), empty when missing;
@@ -75,23 +78,18 @@ def read_log(path):
     data = read_bytes(path, "flight log")
     if not data.startswith(fl.FILE_MAGIC):
         raise LogDecodeError(f"{path}: not a flight log (no {fl.FILE_MAGIC!r} magic)")
-    off = len(fl.FILE_MAGIC)
-    if len(data) < off + 8:
-        raise LogDecodeError(f"{path}: truncated header")
-    hlen, hcrc = struct.unpack_from(fl.FILE_HDR_FMT, data, off)
-    off += 8
-    text = data[off:off + hlen]
-    if len(text) != hlen or (fl.crc32(text) & 0xFFFFFFFF) != hcrc:
-        raise LogDecodeError(f"{path}: header damaged (length or CRC)")
-    try:
-        header = json.loads(text.decode())
-    except ValueError as exc:
-        raise LogDecodeError(f"{path}: header is not JSON: {exc}") from None
-    if header.get("format") != fl.FORMAT_VERSION:
+    problems = []
+    header, off = _read_header(data)
+    if header is None:
+        # a damaged header costs the configuration, not the blocks: they are found by their magic
+        # and CRC (a replay then uses the default configuration: say so)
+        problems.append("header damaged (length or CRC): blocks read without it; configuration unknown")
+        header = {"format": fl.FORMAT_VERSION}
+        off = _next_block(data, len(fl.FILE_MAGIC))
+    elif header.get("format") != fl.FORMAT_VERSION:
         raise LogDecodeError(f"{path}: log format {header.get('format')!r}, this decoder reads "
                              f"{fl.FORMAT_VERSION}")
-    off += hlen
-    problems, notes = [], []
+    notes = []
     summary = None
     recs, samples, fcs = [], [], []
     nblocks = 0
@@ -110,6 +108,9 @@ def read_log(path):
         magic, seq, first, nrec, kind, fc_start, _crc = struct.unpack_from(fl.BLK_FMT, block, 0)
         if magic != fl.BLK_MAGIC:
             problems.append(f"block {index}: bad magic")
+            resync = _next_block(data, off - fl.BLOCK_SIZE + 1)
+            if resync < len(data):  # blocks continue at another offset: follow them
+                off = resync
             continue
         if not fl.block_crc_ok(block):
             problems.append(f"block {index} (seq {seq}): CRC mismatch, skipped")
@@ -157,25 +158,62 @@ def read_log(path):
                         "which a replay from the start cannot reproduce")
     order = np.argsort(sample, kind="stable")
     records, sample, fcb = records[order], sample[order], fcb[order]
-    gaps = np.flatnonzero(np.diff(sample) != 1)
-    for g in gaps[:5]:
-        problems.append(f"samples {sample[g] + 1}..{sample[g + 1] - 1} missing")
+    gaps = np.flatnonzero(np.diff(sample) > 1)
+    for g in gaps:  # every gap: the rows' time keeps it (to_columns)
+        problems.append(f"samples {sample[g] + 1}..{sample[g + 1] - 1} missing "
+                        f"({sample[g + 1] - sample[g] - 1} samples)")
     log = DecodedLog(str(path), header, records, sample, fcb, int(fcb[-1]), summary, notes, problems, nblocks)
     log.after_resume = after_resume
     return log
 
 
+def _read_header(data):
+    """The header dict and the offset after it, or (None, 0) when its length or CRC is bad."""
+    off = len(fl.FILE_MAGIC)
+    if len(data) < off + 8:
+        return None, 0
+    hlen, hcrc = struct.unpack_from(fl.FILE_HDR_FMT, data, off)
+    off += 8
+    text = data[off:off + hlen]
+    if len(text) != hlen or (fl.crc32(text) & 0xFFFFFFFF) != hcrc:
+        return None, 0
+    try:
+        return json.loads(text.decode()), off + hlen
+    except ValueError:
+        return None, 0
+
+
+def _next_block(data, start):
+    """Offset of the first block at or after ``start`` whose magic and CRC are right (or the end)."""
+    magic = struct.pack("<I", fl.BLK_MAGIC)
+    off = data.find(magic, start)
+    while off >= 0:
+        block = data[off:off + fl.BLOCK_SIZE]
+        if len(block) == fl.BLOCK_SIZE and fl.block_crc_ok(block):
+            return off
+        off = data.find(magic, off + 1)
+    return len(data)
+
+
 def final_rows(log):
     """(records, owned, time_us) of the final flight computer's rows: ``owned`` is False on the
     rows logged while it was still the pad's shadow (their filter fields are the previous one's);
-    ``time_us`` is the sum of the board's ``dt_us``, 0 at the launch sample (or the first row)."""
+    ``time_us`` is the sum of the board's ``dt_us`` plus one period per missing sample, 0 at the
+    launch sample (or the first row)."""
     keep = log.sample >= log.fc_start
     r = log.records[keep]
     if not len(r):
         raise LogDecodeError(f"{log.path}: no records from sample {log.fc_start} on")
     own = log.fc_start_of_block[keep] == log.fc_start
     dt = r["dt_us"].astype(np.int64)
-    t_us = np.concatenate([[0], np.cumsum(dt[1:])])
+    # time from the sample indices: a missing sample (a lost block) took one period, so a gap
+    # stays a gap in time (the replay's filter predicts across it), never silently closed
+    period = int(log.header.get("period_us") or 0)
+    if not period:
+        sample_hz = log.header.get("sample_hz")
+        period = 1000000 // int(sample_hz) if sample_hz else int(np.median(dt[1:])) if len(dt) > 1 else 0
+    missing = np.concatenate([[0], np.diff(log.sample[keep]) - 1])
+    t_us = np.cumsum(np.concatenate([[0], dt[1:]]) + missing * period)
     launch = np.flatnonzero(r["events"] & EV_LAUNCH)
     if len(launch):
         t_us = t_us - t_us[launch[0]]

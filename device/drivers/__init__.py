@@ -65,6 +65,7 @@ __all__ = [
     "SensorError",
     "ChipIdError",
     "CalibrationError",
+    "ReadingError",
     "SensorConfigError",
     "chip_id_error",
     "mul_shr",
@@ -99,6 +100,11 @@ class CalibrationError(SensorError):
 
 class SensorConfigError(SensorError):
     """The part rejected the requested configuration (e.g. BMP3 ERR.conf_err)."""
+
+
+class ReadingError(SensorError):
+    """A reading the part's own compensation cannot turn into a value (raised from ``read()``;
+    the flight loop counts it as a failed read: the reading is never used)."""
 
 
 def chip_id_error(part, addr, got, expected):

@@ -40,7 +40,7 @@ The datasheet example (``dig_T1 = 27504 ...``, adc_T 519888, adc_P 415148) gives
 25.08 degC and 100653.26 Pa (int64: 25767233 / 256 = 100653.25 Pa).
 """
 
-from . import CalibrationError, I2CDevice, const, mul_shr, sleep_ms
+from . import CalibrationError, I2CDevice, ReadingError, const, mul_shr, sleep_ms
 
 _REG_CALIB = const(0x88)
 _REG_ID = const(0xD0)
@@ -58,6 +58,10 @@ _STATUS_IM_UPDATE = const(0x01)
 _OSRS_VALUES = (0, 1, 2, 4, 8, 16)  # code 0 = skipped
 _IIR_VALUES = (0, 2, 4, 8, 16)
 _T_SB_US = (500, 62500, 125000, 250000, 500000, 1000000, 2000000, 4000000)
+
+
+# raised from read() (pre-built: the per-sample path allocates nothing)
+_NO_PRESSURE = ReadingError("BMP280: pressure compensation undefined (var1 <= 0)")
 
 
 def _s16(b, i):
@@ -149,8 +153,9 @@ class BMP280(I2CDevice):
         # e = var1 / dig_P1 = 1 + P3 vv**2 / 2**55 + P2 vv / 2**35, in Q24
         e = 16777216 + mul_shr(sq, self._p3, 17) + mul_shr(self._p2x8, vv, 14)
         if e <= 0:
-            self.pressure_q4_pa = 0
-            return
+            # the datasheet's code returns pressure 0 here (it would divide by zero): that is not
+            # a pressure; raised, never stored, so no one uses it
+            raise _NO_PRESSURE
         a = mul_shr(x, self._k30, 28)  # x * 6250 / dig_P1 in Pa * 2**8 (before / e)
         q = a // e  # q = floor(a * 2**24 / e), 24 quotient bits in 5-bit steps
         r = a - q * e

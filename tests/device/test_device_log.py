@@ -99,6 +99,40 @@ def test_damaged_block_is_detected(tmp_path):
     assert any("sequence 2 after 0" in p for p in log.problems)
 
 
+def test_flipped_bit_in_the_header_costs_only_the_header(tmp_path):
+    make_log(tmp_path / "flight.log")
+    full = read_log(tmp_path / "flight.log")
+    data = bytearray((tmp_path / "flight.log").read_bytes())
+    data[len(fl.FILE_MAGIC) + 8 + 20] ^= 0x04  # one bit of the header's JSON
+    (tmp_path / "bad.log").write_bytes(bytes(data))
+    log = read_log(tmp_path / "bad.log")
+    assert any("header damaged" in p for p in log.problems)
+    assert len(log.records) == len(full.records) and log.blocks == full.blocks
+    assert np.array_equal(log.records, full.records)
+
+
+def test_lost_block_is_reported_and_keeps_its_time(tmp_path):
+    # a block lost from the middle of the flight: every gap is reported, and the rows after it keep
+    # their time (from the sample index), so the apogee's time does not move
+    make_log(tmp_path / "flight.log")
+    full = read_log(tmp_path / "flight.log")
+    data = (tmp_path / "flight.log").read_bytes()
+    first = data.index(struct.pack("<I", fl.BLK_MAGIC))
+    cut = first + 5 * fl.BLOCK_SIZE  # the sixth block
+    (tmp_path / "gap.log").write_bytes(data[:cut] + data[cut + fl.BLOCK_SIZE:])
+    log = read_log(tmp_path / "gap.log")
+    lo = 5 * fl.BLOCK_RECORDS
+    assert any(f"samples {lo}..{lo + fl.BLOCK_RECORDS - 1} missing" in p for p in log.problems)
+    from desktop.io.logdecode import to_columns
+
+    cols_full, _ = to_columns(full)
+    cols, _ = to_columns(log)
+    t_full = dict(zip(full.sample.tolist(), np.round(cols_full["time_s"] * 1e6).astype(int).tolist(),
+                      strict=True))
+    t_gap = dict(zip(log.sample.tolist(), np.round(cols["time_s"] * 1e6).astype(int).tolist(), strict=True))
+    assert all(t_gap[k] == t_full[k] for k in t_gap)
+
+
 def test_not_a_log(tmp_path):
     (tmp_path / "x.log").write_bytes(b"hello")
     with pytest.raises(LogDecodeError, match="not a flight log"):

@@ -277,6 +277,22 @@ def test_bmp280_datasheet_example_decodes():
     assert abs(drv.pressure_q4_pa - p64 / 16) <= 1
 
 
+def test_bmp280_undefined_compensation_is_an_error_not_pressure_0():
+    # the datasheet's code returns 0 Pa when its var1 <= 0 (it would divide by zero); a flight
+    # computer would take 0 Pa for 31 km. The driver raises instead, and keeps its last pressure
+    from device.drivers import ReadingError
+
+    fake = FakeBMP280()
+    drv = BMP280(on_bus(0x76, fake))
+    fake.set_raw(*fb.BMP280_DATASHEET_RAW)
+    drv.read()
+    good = drv.pressure_q4_pa
+    drv._p2x8 = -(1 << 30)  # a calibration term that drives var1 below 0 at this temperature
+    with pytest.raises(ReadingError):
+        drv.read()
+    assert drv.pressure_q4_pa == good != 0
+
+
 def test_bmp280_datasheet_example_encodes():
     fake = FakeBMP280()
     BMP280(on_bus(0x76, fake), osrs_p=16, osrs_t=16)  # 20-bit output words: no quantisation

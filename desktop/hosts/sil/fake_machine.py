@@ -129,6 +129,23 @@ def reset_state(reset_cause=PWRON_RESET, keep_rtc=True):
     _state["wdt_timeout"] = 0
     if not keep_rtc:
         _state["rtc"] = b""
+        _MEM32.clear()
+
+
+_MEM32 = {}  # address -> 32-bit word; kept across simulated resets like the RP2040's watchdog scratch
+
+
+class _Mem:
+    """``machine.mem32``: a word store (the scratch registers the resume record uses)."""
+
+    def __getitem__(self, addr):
+        return _MEM32.get(addr, 0)
+
+    def __setitem__(self, addr, value):
+        _MEM32[addr] = value & 0xFFFFFFFF
+
+
+mem32 = _Mem()
 
 
 def install(origin_us=0):

@@ -33,9 +33,10 @@ def prepare(workdir, scenario, board=None, config=None, pyro_pins=True):
 
 
 def run_sil(workdir, scenario, board=None, config=None, inputs=None, adc=None, origin_us=ORIGIN_NEAR_WRAP,
-            end_us=None, lock_heap=True, interp="unix", rtc_memory=True):
-    """Run boot.py + main.py on MicroPython against ``scenario``; returns the result dict."""
-    frames = prepare(workdir, scenario, board, config)
+            end_us=None, lock_heap=True, interp="unix", rtc_memory=True, pyro_pins=True):
+    """Run boot.py + main.py on MicroPython against ``scenario``; returns the result dict.
+    ``pyro_pins`` False keeps the workdir's own pyro_pins.txt."""
+    frames = prepare(workdir, scenario, board, config, pyro_pins)
     if inputs is None:
         inputs = [[ARM_PIN, 0, 1_000_000]]  # arming switch closed 1 s after power-on
     if adc is None:

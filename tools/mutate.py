@@ -1,0 +1,252 @@
+"""Mutation testing of the safety rules: remove each named rule in turn and check that a test fails.
+
+    python tools/mutate.py            # every mutant; prints a table and the score
+    python tools/mutate.py --list     # the mutants, without running anything
+    python tools/mutate.py NAME...    # only these mutants
+    python tools/mutate.py --json     # the results as JSON
+
+Each mutant is one edit of the source (file, original text, mutated text): the rule removed, as a
+careless change would remove it. The repository is copied once to a temporary directory and every
+mutant is applied to the copy (the working tree is never touched). A mutant is killed when its
+named test (the row of the safety-invariants table in docs/DESIGN.md) fails; a mutant that survives
+its named test is run against the whole fast lane (tests/shared, not slow, not MicroPython) before
+it counts as a survivor. Score = killed / mutants. docs/DESIGN.md says why each survivor survives.
+"""
+
+import argparse
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+FLIGHT = "shared/flight.py"
+HEALTH = "shared/health.py"
+PADCAL = "shared/padcal.py"
+PAD_TESTS = "tests/shared/test_pad_launch_proof.py"
+FLIGHT_TESTS = "tests/shared/test_flight.py"
+FAST_LANE = ["tests/shared/test_flight.py", PAD_TESTS, "-m", "not slow and not micropython"]
+
+# (name, file, original, mutated, test that must fail)
+MUTANTS = [
+    ("drogue-needs-proof", FLIGHT,
+     "if self.flight_proven and self.drogue_fired_ms < 0:",
+     "if self.drogue_fired_ms < 0:",
+     FLIGHT_TESTS + "::test_knock_with_pressure_step_never_fires"),
+    ("main-needs-proof", FLIGHT,
+     "if not self.flight_proven or since_ms < cfg.main_guard_ms:",
+     "if since_ms < cfg.main_guard_ms:",
+     PAD_TESTS + "::test_main_needs_proof_of_flight"),
+    ("main-guard-time", FLIGHT,
+     "if not self.flight_proven or since_ms < cfg.main_guard_ms:",
+     "if not self.flight_proven:",
+     PAD_TESTS + "::test_under_performing_flight_opens_the_main_after_the_guard"),
+    ("proof-climb-held", FLIGHT,
+     "proven = self.climb_ms >= _PROOF_HOLD_MS",
+     "proven = True",
+     FLIGHT_TESTS + "::test_stuck_and_garbage_sensors_never_fire"),
+    ("proof-accel-speed", FLIGHT,
+     "proven = proven and self.acc_dv_max_mmps >= cfg.proof_speed_mmps",
+     "proven = proven",
+     PAD_TESTS + "::test_shove_with_pressure_offset_never_fires"),
+    ("proof-heights-agree", FLIGHT,
+     "agree = -_AGREE_MM - (climb_mm >> 2) <= diff and (",
+     "agree = True or -_AGREE_MM - (climb_mm >> 2) <= diff and (",
+     FLIGHT_TESTS + "::test_knock_with_pressure_step_never_fires"),
+    ("proof-baro-only-climb", FLIGHT,
+     "line_mm = cfg.proof_climb_mm if accel_ok else cfg.proof_baro_climb_mm",
+     "line_mm = cfg.proof_climb_mm",
+     PAD_TESTS + "::test_barometer_only_offset_between_proof_and_rebase_never_fires"),
+    ("proof-baro-only-speed", FLIGHT,
+     "        elif baro_ok:\n            proven = proven and self.max_vel_mmps >= cfg.proof_speed_mmps",
+     "        elif baro_ok:\n            proven = proven",
+     PAD_TESTS + "::test_barometer_only_slow_climb_never_proves"),
+    ("proof-accel-only-boost", FLIGHT,
+     "and self.boost_max_ms >= _ACCEL_ONLY_BOOST_MS)",
+     ")",
+     FLIGHT_TESTS + "::test_knocks_never_fire"),
+    ("proof-sensor-fallback", FLIGHT,
+     "        else:\n            proven = False\n        self.flight_proven = proven",
+     "        else:\n            proven = False\n        proven = proven and accel_ok and baro_ok\n"
+     "        self.flight_proven = proven",
+     PAD_TESTS + "::test_barometer_lost_before_proof_falls_back_to_the_accelerometer"),
+    ("sensor-lost-baro", HEALTH,
+     "self.baro_ok = self.has_baro and self.baro_age_ms < self.lost_ms",
+     "self.baro_ok = self.has_baro",
+     PAD_TESTS + "::test_barometer_lost_before_proof_falls_back_to_the_accelerometer"),
+    ("sensor-lost-accel", HEALTH,
+     "self.accel_ok = self.has_accel and self.accel_age_ms < self.lost_ms",
+     "self.accel_ok = self.has_accel",
+     PAD_TESTS + "::test_accelerometer_lost_before_proof_falls_back_to_the_barometer"),
+    ("apogee-decel-gate", FLIGHT,
+     "and cfg.coast_decel_mmps2 << 4 <= -self.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4",
+     "",
+     "tests/desktop/test_replay_altos.py"),
+    ("apogee-measured-coast", FLIGHT,
+     "and (self.coast_measured or not self.health.accel_ok))",
+     ")",
+     PAD_TESTS + "::test_apogee_gate_uses_the_measured_acceleration_not_the_coast_clamp"),
+    ("apogee-only-in-coast", FLIGHT,
+     "return (self.state == COAST and self.flight_proven",
+     "return (self.flight_proven",
+     FLIGHT_TESTS + "::test_apogee_delay_and_no_fire_through_mach"),
+    ("apogee-needs-proof", FLIGHT,
+     "return (self.state == COAST and self.flight_proven",
+     "return (self.state == COAST",
+     PAD_TESTS + "::test_apogee_needs_proof_of_flight"),
+    ("apogee-above-proof-climb", FLIGHT,
+     "and self.agl_mm >= cfg.proof_climb_mm\n",
+     "\n",
+     PAD_TESTS + "::test_apogee_needs_proof_of_flight"),
+    ("resume-settle", FLIGHT,
+     "and self.now_ms >= self.settle_until_ms",
+     "",
+     PAD_TESTS + "::test_resume_settles_before_apogee_after_an_overestimated_reset"),
+    ("mach-lockout", FLIGHT,
+     "fast = self.kf.vel_q4 >> 4 > cfg.mach_lockout_mmps",
+     "fast = False",
+     FLIGHT_TESTS + "::test_apogee_delay_and_no_fire_through_mach"),
+    ("main-by-altitude-needs-margin", FLIGHT,
+     "elif self.max_agl_mm >= cfg.main_deploy_mm + cfg.main_margin_mm:",
+     "elif True:",
+     PAD_TESTS + "::test_under_performing_flight_opens_the_main_after_the_guard"),
+    ("main-descending", FLIGHT,
+     "elif self.vel_mmps >= 0:",
+     "elif False:",
+     PAD_TESTS + "::test_main_only_while_descending"),
+    ("main-timer-without-baro", FLIGHT,
+     "elif not self.health.baro_ok:",
+     "elif False:",
+     PAD_TESTS + "::test_accelerometer_only_main_on_the_timer_after_the_drogue"),
+    ("launch-refused-orientation", FLIGHT,
+     "if self.errors & (ERR_ORIENTATION | ERR_BARO_ERRATIC):",
+     "if False:",
+     FLIGHT_TESTS + "::test_board_not_upright_or_wrong_range_refuses_launch"),
+    ("launch-height-needs-push", FLIGHT,
+     "and (not self.health.accel_ok or self.acc_dv_mmps >= cfg.launch_speed_mmps))",
+     ")",
+     FLIGHT_TESTS + "::test_board_not_upright_or_wrong_range_refuses_launch"),
+    ("launch-by-height", FLIGHT,
+     "if boost or height:",
+     "if boost:",
+     PAD_TESTS + "::test_thrust_to_weight_2_9_launches_and_fires_at_apogee"),
+    ("ground-before-launch", FLIGHT,
+     "ground = self.pad.launch_ground()",
+     "ground = self.ground_alt_mm",
+     PAD_TESTS + "::test_bad_barometer_reading_on_the_launch_sample_is_not_the_ground"),
+    ("pad-quiet-not-climbing", PADCAL,
+     "return  # climbing under a push: a slow boost",
+     "pass",
+     PAD_TESTS + "::test_thrust_to_weight_2_9_launches_and_fires_at_apogee"),
+    ("pad-rebase", PADCAL,
+     "if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:",
+     "if False:",
+     FLIGHT_TESTS + "::test_pressure_steps_never_fire"),
+    ("pad-erratic-baro", PADCAL,
+     "if self._jumps >= 3:",
+     "if False:",
+     PAD_TESTS + "::test_erratic_barometer_refuses_launch"),
+    ("pad-orientation", PADCAL,
+     "            self.errors |= ERR_ORIENTATION",
+     "            pass",
+     FLIGHT_TESTS + "::test_board_not_upright_or_wrong_range_refuses_launch"),
+    ("range-check", HEALTH,
+     "if have & HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):",
+     "if False:",
+     PAD_TESTS + "::test_out_of_range_barometer_on_the_pad_is_not_a_pressure_step"),
+    ("boost-gate", FLIGHT,
+     "self.det.gate_alt_mm = cfg.boost_gate_mm",
+     "self.det.gate_alt_mm = 0",
+     PAD_TESTS + "::test_out_of_range_barometer_in_boost_is_not_used"),
+    ("clipped-accel-unused", HEALTH,
+     "have &= HAVE_BARO  # a clipped reading under-reads",
+     "pass  # a clipped reading under-reads",
+     PAD_TESTS + "::test_clipped_accelerometer_is_not_used"),
+    ("false-launch-at-rest", FLIGHT,
+     "if not (near or at_rest):",
+     "if not near:",
+     PAD_TESTS + "::test_a_pad_offset_that_launched_returns_to_the_pad_and_a_real_flight_still_flies"),
+    ("pulse-ends", FLIGHT,
+     "if self.pyro_drogue and self.now_ms >= self._drogue_off_ms:",
+     "if False:",
+     FLIGHT_TESTS + "::test_pulses_are_exactly_the_configured_length_and_fire_once"),
+    ("coast-gates", FLIGHT,
+     "self.det.gate_alt_mm = _GATE_ALT_MM",
+     "self.det.gate_alt_mm = 0",
+     PAD_TESTS + "::test_barometer_transient_in_coast_does_not_fire_early"),
+    ("resume-proof-from-one-sensor", FLIGHT,
+     "self.acc_account = False  # proof, if still owed, from one sensor alone",
+     "pass",
+     FLIGHT_TESTS + "::test_resume_after_reset_in_flight"),
+]
+
+
+def _pytest(workdir, args, timeout_s):
+    cmd = [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", *args]
+    try:
+        proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        return None  # a mutant that hangs is killed (the flight loop would miss its deadlines)
+    return proc.returncode
+
+
+def run(names=None, timeout_s=600):
+    chosen = [m for m in MUTANTS if names is None or m[0] in names]
+    if names is not None and len(chosen) != len(set(names)):
+        unknown = sorted(set(names) - {m[0] for m in MUTANTS})
+        raise SystemExit("mutate: unknown mutant(s): %s" % ", ".join(unknown))
+    results = []
+    with tempfile.TemporaryDirectory(prefix="mutate-") as tmp:
+        work = Path(tmp) / "repo"
+        shutil.copytree(ROOT, work, ignore=shutil.ignore_patterns(".git", ".venv", "__pycache__", "*.pyc"))
+        for name, rel, original, mutated, test in chosen:
+            path = work / rel
+            source = path.read_text()
+            if source.count(original) != 1:
+                raise SystemExit("mutate: %s: the rule's text is not found exactly once in %s" % (name, rel))
+            path.write_text(source.replace(original, mutated))
+            t0 = time.time()
+            try:
+                code = _pytest(work, [test, "-m", "not slow"], timeout_s)
+                if code not in (0, 1, None):  # 4 or 5: the named test does not exist
+                    raise SystemExit("mutate: %s: pytest exit %d on %s" % (name, code, test))
+                killed_by = test if code != 0 else None
+                if killed_by is None:
+                    code = _pytest(work, FAST_LANE, timeout_s)
+                    killed_by = "fast lane" if code in (1, None) else None
+            finally:
+                path.write_text(source)
+            results.append({"mutant": name, "file": rel, "test": test, "killed": killed_by is not None,
+                            "killed_by": killed_by, "seconds": round(time.time() - t0, 1)})
+            print("%-32s %-8s %5.1f s  %s" % (name, "killed" if killed_by else "SURVIVED",
+                                             time.time() - t0, killed_by or test), flush=True)
+    return results
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("names", nargs="*", help="mutants to run (default: all)")
+    ap.add_argument("--list", action="store_true", help="list the mutants and their tests")
+    ap.add_argument("--json", action="store_true", help="print the results as JSON")
+    args = ap.parse_args(argv)
+    if args.list:
+        for name, rel, _o, _m, test in MUTANTS:
+            print("%-32s %-18s %s" % (name, rel, test))
+        return 0
+    t0 = time.time()
+    results = run(args.names or None)
+    killed = sum(r["killed"] for r in results)
+    score = 100.0 * killed / len(results)
+    if args.json:
+        print(json.dumps({"score_pct": round(score, 1), "killed": killed, "mutants": len(results),
+                          "seconds": round(time.time() - t0), "results": results}, indent=1))
+    else:
+        print("score: %d/%d killed = %.0f %% in %.0f s" % (killed, len(results), score, time.time() - t0))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
