@@ -25,8 +25,9 @@ charge time).
 
 Not in AltOS, needed to replay records here: a reading the record lacks (an empty cell) is not
 used for that sample (the barometer-only or accelerometer-only gains correct with the other sensor;
-with neither, the filter predicts); the gains are those of each sample's actual period (AltOS
-boards sample at a fixed 100 Hz; its replay harness switches gains for the 10 Hz descent logs).
+with neither, the filter predicts); the gains are those of each sample's actual period to the
+millisecond (AltOS boards sample at a fixed 100 Hz; its replay harness switches gains for the 10 Hz
+descent logs).
 """
 
 from __future__ import annotations
@@ -136,21 +137,22 @@ _GAIN_CACHE: dict = {}
 
 
 def _gains(dt_s: float, kind: str):
-    key = (round(dt_s * 1e4), kind)  # 0.1 ms classes: jittered periods share a row
+    key = (max(1, round(dt_s * 1e3)), kind)  # to the millisecond: jittered periods share a row
     g = _GAIN_CACHE.get(key)
     if g is None:
-        k = altos_gains(max(key[0], 1) / 1e4, kind)
+        k = altos_gains(key[0] / 1e3, kind)
         g = tuple(tuple(float(x) for x in row) for row in k)
         _GAIN_CACHE[key] = g
     return g
 
 
-def run_altos(time_s, pressure_pa, accel_mps2, settings: AltosSettings = AltosSettings(),
+def run_altos(time_s, pressure_pa, accel_mps2, settings: AltosSettings | None = None,
               trace: bool = False, stop_after_main_s: float | None = 0.0) -> AltosResult:
     """Run AltOS's algorithm over one record (arrays; NaN = no reading in that sample).
 
     Returns the times of its events; with ``trace``, also the height, speed and state per sample.
     ``stop_after_main_s``: stop that long after the main fired (None: run to the end)."""
+    settings = settings or AltosSettings()
     t = np.asarray(time_s, dtype=np.float64)
     p = np.asarray(pressure_pa, dtype=np.float64)
     have_p = np.isfinite(p)
