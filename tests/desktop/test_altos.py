@@ -30,6 +30,7 @@ def test_gains_match_the_published_altos_gains(dt, kind, published):
     assert altos_gains(dt, kind) == pytest.approx(np.array(published), rel=2e-4)
 
 
+@pytest.mark.slow
 def test_drag_free_flight_apogee_within_a_tenth_of_a_second():
     # ideal sensors at 100 Hz, 1 s on the pad (held at the first sample), 1.8 km drag-free flight
     traj = drag_free_vertical(thrust_n=200.0, burn_time_s=2.0, dry_mass_kg=2.0)
