@@ -430,6 +430,11 @@ def main(argv=None) -> int:
     except BenchError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    try:
+        rows_file = open(args.rows, "w") if args.rows else None
+    except OSError as exc:
+        print(f"error: --rows {args.rows}: cannot write: {exc.strerror}", file=sys.stderr)
+        return 2
     cache = None if args.cache == "none" else Path(args.cache)
     trajectories = min(args.trajectories, args.flights)
     t0 = time.perf_counter()
@@ -452,7 +457,6 @@ def main(argv=None) -> int:
             tasks.append((name, rocket_i, j, flights, args.seed, cache, nm["backup_drogue_s"],
                           nm["max_mach"]))
     rows = []
-    rows_file = open(args.rows, "w") if args.rows else None
     from tqdm import tqdm
 
     bar = tqdm(total=len(tasks), unit="trajectory", file=sys.stderr, disable=None)
