@@ -186,9 +186,9 @@ def _score(traj, drogue_s, main_s):
 def board_config(rate_hz: float):
     """The simulated board: the sensor models' defaults with PAD_S on the pad and no transonic
     port error of their own (static-port errors are a fault class here)."""
-    from desktop.sim.sensor_models import BoardConfig, TransonicError
+    from desktop.sim.sensor_models import BoardConfig, TransonicModel
 
-    return BoardConfig(rate_hz=rate_hz, pad_s=PAD_S, transonic=TransonicError(c=0.0))
+    return BoardConfig(rate_hz=rate_hz, pad_s=PAD_S, transonic=TransonicModel(c=0.0))
 
 
 def faulted_record(traj, fault, profile: str, record_seed: int, board, base=None):

@@ -38,8 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from desktop.sim.trajectory import isa_altitude
-
-G0_MPS2 = 9.80665
+from shared.physics import G0_MPS2
 
 # AltOS's sigmas (make-kalman): model (jerk) error m/s^2, barometer m, accelerometer m/s^2.
 SIGMA_MODEL_MPS2 = 2.0

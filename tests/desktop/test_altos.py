@@ -12,6 +12,7 @@ import pytest
 from desktop.io.flightcsv import read_flight_csv
 from desktop.sim.trajectory import drag_free_vertical
 from desktop.study.altos import AltosSettings, altos_gains, run_altos, run_altos_log
+from shared.physics import G0_MPS2
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "flights"
 REFERENCE = json.loads((DATA / "altos" / "reference.json").read_text())["flights"]
@@ -37,7 +38,7 @@ def test_drag_free_flight_apogee_within_a_tenth_of_a_second():
     t = np.concatenate([np.arange(-1.0, 0.0, 0.01), traj.time_s[::10]])
     pad = t < 0
     p = np.concatenate([np.full(pad.sum(), traj.pressure_pa[0]), traj.pressure_pa[::10]])
-    f = np.concatenate([np.full(pad.sum(), 9.80665), traj.accel_mps2[::10]])
+    f = np.concatenate([np.full(pad.sum(), G0_MPS2), traj.accel_mps2[::10]])
     res = run_altos(t, p, f, AltosSettings())
     assert abs(res.time("drogue") - traj.apogee_time_s) < 0.1
     # burnout when the filtered acceleration falls below -2.5 m/s^2: after the thrust ends, soon
