@@ -270,8 +270,11 @@ def encode_row(rate_hz, both, baro, accel, coast, late):
 
 
 def _row_lines(row):
-    text = textwrap.wrap(repr(row) + ",", 96, break_on_hyphens=False)
-    return ["    " + text[0]] + ["     " + line for line in text[1:]]
+    # A list literal made a tuple at import, not a tuple literal: MicroPython's freezer (mpy-tool)
+    # stores an int outside +-8191 inside a constant tuple as a long-int object, and every gain
+    # product with it then allocates. The ints of a list literal are compiled as small ints.
+    text = textwrap.wrap("tuple(%r)," % (list(row),), 96, break_on_hyphens=False)
+    return ["    " + text[0]] + ["           " + line for line in text[1:]]
 
 
 def decode(mantissa, shift):
@@ -356,6 +359,7 @@ def render():
         "Q = diag(0, 0, 1), T = 0.05 s); only for 20 Hz; no bias or late-coast model (its combined gains).",
         '"""',
         "",
+        "# Rows are tuple([...]) so that frozen firmware keeps every gain a small int (_row_lines).",
         "PROJECT = (",
     ]
     for rate in RATES_HZ:
