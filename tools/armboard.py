@@ -48,12 +48,12 @@ VENDOR = ROOT / "third_party" / "micropython"
 TARBALL = VENDOR / "micropython-1c3c2011.tar.gz"
 PATCH = VENDOR / "qemu-ticks-cpu.patch"
 FLAGS_MK = VENDOR / "rp2-flags.mk"
-M0_LDSCRIPT = VENDOR / "nrf51-1m.ld"
+M0_LDSCRIPT = VENDOR / "nrf51-2m.ld"
 CACHE = Path(os.environ.get("APOGEE_ARM_CACHE", ROOT / "build" / "arm"))
 APT_HINT = "apt-get install -y gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm"
 
-HEAP_BYTES = 786432  # 768 KB: the tests' longest flights and their states fit (RAM is 1 MB)
-M0_SRAM_BYTES = 2097152  # the firmware is linked for the first 1 MB; files are loaded above
+HEAP_BYTES = 1835008  # 1.75 MB: the tests' longest flights and their states fit (RAM is 2 MB)
+M0_SRAM_BYTES = 4194304  # the firmware is linked for the first 2 MB; files are loaded above
 M0_FLASH_BYTES = 1048576
 # name: (MicroPython BOARD, qemu machine, extra qemu arguments, extra make arguments)
 BOARDS = {
@@ -106,6 +106,7 @@ class RamFS:
     def __init__(self):
         self.files = {}
         self.dirs = {""}
+        self.cwd = ""
     def load(self, addr, size, index):
         import uctypes
         mem = memoryview(uctypes.bytearray_at(addr, size))
@@ -119,23 +120,27 @@ class RamFS:
     def umount(self):
         pass
     def chdir(self, path):
-        pass
+        self.cwd = self._path(path)
     def getcwd(self):
-        return ""
+        return "/" + self.cwd
+    def _path(self, path):
+        if not path.startswith("/") and self.cwd:
+            path = self.cwd + "/" + path
+        return path.strip("/")
     def ilistdir(self, path):
-        path = path.strip("/")
+        path = self._path(path)
         for name in self.files:
             if name.rsplit("/", 1)[0] == path or (path == "" and "/" not in name):
                 yield (name.rsplit("/", 1)[-1], 0x8000, 0, len(self.files[name]))
     def stat(self, path):
-        path = path.strip("/")
+        path = self._path(path)
         if path in self.dirs:
             return (0x4000, 0, 0, 0, 0, 0, 0, 0, 0, 0)
         if path in self.files:
             return (0x8000, 0, 0, 0, 0, 0, len(self.files[path]), 0, 0, 0)
         raise OSError(2)
     def open(self, path, mode):
-        path = path.strip("/")
+        path = self._path(path)
         if path not in self.files:
             raise OSError(2)
         return io.BytesIO(self.files[path])
@@ -143,10 +148,10 @@ _rf = RamFS()
 os.mount(_rf, "/ram")
 sys.path.insert(0, "/ram")
 '''
-# Where qemu's generic loader puts the files of the RAM filesystem: past the 1 MB of RAM the
-# Cortex-M0 firmware is linked for (qemu gives it 2 MB), and the MPS2's PSRAM.
-BLOB_ADDR = {"m0": 0x20100000, "m3": 0x21000000}
-BLOB_MAX_BYTES = 1048576
+# Where qemu's generic loader puts the files of the RAM filesystem: past the 2 MB of RAM the
+# Cortex-M0 firmware is linked for (qemu gives it 4 MB), and the MPS2's PSRAM.
+BLOB_ADDR = {"m0": 0x20200000, "m3": 0x21000000}
+BLOB_MAX_BYTES = 2097152
 
 
 class ArmError(Exception):
@@ -331,13 +336,18 @@ def build(board, kind, micropython=None, quiet=False):
     stage, stage_key, files = stage_modules()
     mp_board, _machine, _qemu_args, make_args = BOARDS[board]
     cflags = CFLAGS_EXTRA + (" -DMICROPY_MODULE_FROZEN_STR=1" if kind == "frozen-source" else "")
-    inputs = _sha(tree.name, board, kind, cflags, HEAP_BYTES, FLAGS_MK.read_bytes(),
-                  M0_LDSCRIPT.read_bytes(), stage_key if kind != "plain" else "")
+    # make tracks source files but not flags: a change of options rebuilds from scratch, a change
+    # of the frozen modules only regenerates the frozen content
+    options = _sha(tree.name, board, kind, cflags, HEAP_BYTES, FLAGS_MK.read_bytes(), M0_LDSCRIPT.read_bytes())
+    inputs = options + "-" + (stage_key if kind != "plain" else "")
     out = CACHE / ("fw-%s-%s-%s" % (tree.name[4:12], board, kind))
     elf = out / "firmware.elf"
     stamp = out / ".inputs"
-    if elf.exists() and stamp.exists() and stamp.read_text() == inputs:
+    old = stamp.read_text() if stamp.exists() else ""
+    if elf.exists() and old == inputs:
         return elf, 0.0
+    if out.exists() and not old.startswith(options + "-"):
+        shutil.rmtree(out)
     out.mkdir(parents=True, exist_ok=True)
     manifest = out / "manifest.py"
     manifest.write_text(_manifest(kind, stage, files))
@@ -492,6 +502,14 @@ def calibrate(b):
     out = b.exec(CALIBRATION)
     ticks = int(out.split("calibration")[1].split()[0])
     return 2 * (CALIBRATION_LOOPS - 1) / ticks
+
+
+def parse_ints(out, label):
+    """The ints of a tools.armboard_guest.print_ints() line."""
+    for line in out.splitlines():
+        if line.startswith(label + ":"):
+            return [int(x) for x in line[len(label) + 1:].split()]
+    raise ArmError("no %r line in the guest's output: %r" % (label, out[-300:]))
 
 
 def parse_dump(out, name):

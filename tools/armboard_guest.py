@@ -278,7 +278,12 @@ def dump(name, result):
     """Print one result as three lines the host parses (``name ticks|phases|states: ints``)."""
     ticks, phases, states = result
     for part, values in (("ticks", ticks), ("phases", phases), ("states", states)):
-        print("%s %s:" % (name, part), end="")
-        for k in range(0, len(values), _DUMP_CHUNK):  # small pieces: the heap may be fragmented
-            print(" " + " ".join([str(v) for v in values[k:k + _DUMP_CHUNK]]), end="")
-        print()
+        print_ints("%s %s" % (name, part), values)
+
+
+def print_ints(label, values):
+    """Print ``label: v0 v1 ...`` on one line, in small pieces (the heap may be fragmented)."""
+    print(label + ":", end="")
+    for k in range(0, len(values), _DUMP_CHUNK):
+        print(" " + " ".join([str(v) for v in values[k:k + _DUMP_CHUNK]]), end="")
+    print()
