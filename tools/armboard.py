@@ -44,6 +44,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+if __name__ == "__main__":
+    sys.path.insert(0, str(ROOT))  # the bench imports tests.sil for the firmware's flight
 VENDOR = ROOT / "third_party" / "micropython"
 TARBALL = VENDOR / "micropython-1c3c2011.tar.gz"
 PATCH = VENDOR / "qemu-ticks-cpu.patch"
@@ -554,9 +556,24 @@ def summarise(ticks, phases, overhead, scale, first=0):
     return res
 
 
+FW_BENCH_SAMPLES = 700  # 14 s of a 50 Hz board (pico.json): pad, boost, coast, apogee, descent
+FW_BENCH_SCENARIO = dict(duration_s=16, launch_s=1.0, boost_mps2=80.0, burn_s=1.0, seed=21)
+
+
+def firmware_files(workdir, scenario):
+    """{board path: bytes} of board.json, config.json and the sensor frames of a SIL scenario."""
+    from tests.sil.flightgen import Scenario
+    from tests.sil.host import prepare
+
+    prepare(workdir, Scenario(**scenario))
+    return {"sil/" + n: (Path(workdir) / n).read_bytes() for n in ("board.json", "config.json", "frames.bin")}
+
+
 def bench_form(board, form, micropython=None, unlocked=True):
-    """Instruction counts of every BENCH_ITEMS entry on one board and form."""
-    b = start(board, form, micropython)
+    """Instruction counts of every BENCH_ITEMS entry, and of the firmware's sample(), on one board
+    and form."""
+    files = firmware_files(CACHE / "sil-bench", FW_BENCH_SCENARIO)
+    b = start(board, form, micropython, files=files)
     try:
         scale = calibrate(b)
         out = b.exec(BENCH_SETUP)
@@ -569,7 +586,12 @@ def bench_form(board, form, micropython=None, unlocked=True):
                 out = b.exec("g.dump('r', %s)" % (call % lock))
                 ticks, phases, _states = parse_dump(out, "r")
                 result["locked" if lock else "unlocked"][name] = summarise(ticks, phases, overhead, scale, first)
-        result["heap_free_after_bench"] = int(b.exec("import gc; gc.collect(); print(gc.mem_free())").split()[-1])
+        out = b.exec("g.dump('fw', g.firmware_path('/ram/sil/frames.bin', '/ram/sil', %d, True, True))\n"
+                     "g.print_ints('fake', g.FAKE_BUS_TICKS)\n" % FW_BENCH_SAMPLES)
+        ticks, phases, _states = parse_dump(out, "fw")
+        result["locked"]["firmware sample(), fake I2C"] = summarise(parse_ints(out, "fake"), phases,
+                                                                    overhead, scale)
+        result["locked"]["firmware sample(), replayed"] = summarise(ticks, phases, overhead, scale)
     finally:
         b.close()
     return result
@@ -581,10 +603,11 @@ def _fmt_k(x):
 
 def print_bench(results):
     """The bench table: instructions per sample (thousands), mean / worst, by phase."""
-    print("guest instructions per sample (thousands; qemu -icount shift=0, SysTick), mean / worst")
+    print("guest instructions per sample (thousands; qemu -icount shift=0, SysTick), mean / worst; "
+          "the firmware rows: 50 Hz, two flight computers per sample on the pad")
     for (board, form), r in results.items():
         print("\n%s, %s (%.2f instructions per SysTick cycle)" % (board, form, r["instructions_per_tick"]))
-        print("  %-20s %-8s %15s %15s %15s %15s %15s" % ("what", "heap", "all", *PHASES))
+        print("  %-30s %-8s %15s %15s %15s %15s %15s" % ("what", "heap", "all", *PHASES))
         for mode in ("locked", "unlocked"):
             for name, s in r[mode].items():
                 cells = ["%s / %s" % (_fmt_k(s["mean"]), _fmt_k(s["worst"]))]
@@ -592,7 +615,7 @@ def print_bench(results):
                     p = s["phases"].get(ph)
                     cells.append("%s / %s" % (_fmt_k(p["mean"]), _fmt_k(p["worst"])) if p and name not in (
                         "pressure_to_alt_mm",) else "-")
-                print("  %-20s %-8s %15s %15s %15s %15s %15s" % (name, mode, *cells))
+                print("  %-30s %-8s %15s %15s %15s %15s %15s" % (name, mode, *cells))
 
 
 def _boards(text):

@@ -43,6 +43,7 @@ PHASE_NAMES = ("pad", "boost", "coast", "descent")
 _ONE_G_MMPS2 = 9807
 _OVERHEAD_SAMPLES = 200
 _DUMP_CHUNK = 256
+FAKE_BUS_TICKS = None  # firmware_path(replay=True): the counts of its run on the fake I2C bus
 
 
 def _lock():
@@ -218,12 +219,14 @@ def count_altitude(n, lock=True):
     return ticks, array("b", bytearray(n)), states
 
 
-def firmware_path(frames_path, workdir, samples, lock=True):
+def firmware_path(frames_path, workdir, samples, lock=True, replay=False):
     """``FlightLoop.sample()`` (sensor reads through the fake I2C bus and the drivers, pressure to
     altitude, the state machine, pyro, log record, status) and ``after_sample()`` on the fake
     machine (tests/sil), as the board runs them. States per sample: pressure_q4_pa, accel_mmps2,
-    alt_q4, vel_q4, state, baro_errors + accel_errors. Call once per interpreter: it installs the
-    fake ``machine``, ``time`` and ``micropython`` modules."""
+    alt_q4, vel_q4, state, baro_errors + accel_errors. With ``replay`` the sensor readings of
+    that run are then replayed as integers (tests/sil/measure.py ReplaySensors: no bus, no
+    driver) through a new loop, whose counts are returned: the firmware's own cost. Call once
+    per interpreter: it installs the fake ``machine``, ``time`` and ``micropython`` modules."""
     tc = _ticks
     td = _diff
     from tests.sil import fake_machine, fake_time
@@ -246,6 +249,9 @@ def firmware_path(frames_path, workdir, samples, lock=True):
     ticks = array("i", bytearray(4 * samples))
     phases = array("b", bytearray(samples))
     states = array("i", bytearray(24 * samples))
+    pressures = array("i", bytearray(4 * samples))  # the readings, for the replay
+    accels = array("i", bytearray(4 * samples))
+    haves = array("i", bytearray(4 * samples))
     s = loop.sensors
     for i in range(samples):
         fake_time.advance(period)
@@ -271,6 +277,28 @@ def firmware_path(frames_path, workdir, samples, lock=True):
         states[j + 3] = fc.kf.vel_q4
         states[j + 4] = st
         states[j + 5] = s.baro_errors + s.accel_errors
+        pressures[i] = s.pressure_q4_pa
+        accels[i] = s.accel_mmps2
+        haves[i] = s.have
+    if replay:
+        from tests.sil.measure import ReplaySensors
+
+        global FAKE_BUS_TICKS
+        FAKE_BUS_TICKS = array("i", ticks)
+        hw.sensors = ReplaySensors(pressures, accels, haves)
+        loop = FlightLoop(hw, load_config({}), flightlog.LogBuffer(b["log_ram_kb"] * 1024))
+        for i in range(samples):
+            if lock:
+                _lock()
+            try:
+                t0 = tc()
+                loop.sample(period)
+                t1 = tc()
+            finally:
+                if lock:
+                    _unlock()
+            loop.after_sample()
+            ticks[i] = td(t1, t0)
     return ticks, phases, states
 
 
