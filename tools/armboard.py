@@ -268,6 +268,8 @@ def stage_modules():
     key = _sha(*[k + "\0" + v for k, v in sorted(contents.items())])
     stage = CACHE / ("stage-" + key)
     if not (stage / ".ready").exists():
+        for old in CACHE.glob("stage-*"):  # stale copies of the modules
+            shutil.rmtree(old, ignore_errors=True)
         for rel, text in contents.items():
             (stage / rel).parent.mkdir(parents=True, exist_ok=True)
             (stage / rel).write_text(text)
@@ -340,7 +342,8 @@ def build(board, kind, micropython=None, quiet=False):
     cflags = CFLAGS_EXTRA + (" -DMICROPY_MODULE_FROZEN_STR=1" if kind == "frozen-source" else "")
     # make tracks source files but not flags: a change of options rebuilds from scratch, a change
     # of the frozen modules only regenerates the frozen content
-    options = _sha(tree.name, board, kind, cflags, HEAP_BYTES, FLAGS_MK.read_bytes(), M0_LDSCRIPT.read_bytes())
+    options = _sha(tree.name, board, kind, cflags, HEAP_BYTES, FLAGS_MK.read_bytes(),
+                   M0_LDSCRIPT.read_bytes())
     inputs = options + "-" + (stage_key if kind != "plain" else "")
     out = CACHE / ("fw-%s-%s-%s" % (tree.name[4:12], board, kind))
     elf = out / "firmware.elf"
@@ -377,8 +380,9 @@ def _check_frozen_ints(out):
         hits = re.findall(r"static const mp_obj_int_t (const_obj_shared_\S+) = \{\{&mp_type_int\}",
                           content.read_text())
         if hits:
-            raise ArmError("frozen shared/ holds %d long-int constants (%s ...): an int outside +-8191 in a "
-                           "constant tuple; run: python tools/armboard.py check-tables" % (len(hits), hits[0]))
+            raise ArmError("frozen shared/ holds %d long-int constants (%s ...): an int outside +-8191 in "
+                           "a constant tuple; see python tools/armboard.py check-tables"
+                           % (len(hits), hits[0]))
 
 
 def compile_mpy(tree, stage, files):
@@ -488,6 +492,8 @@ def start(board, form, micropython=None, timeout_s=600, files=None, modules=None
         raise ArmError("the files for the board take %d bytes, more than %d" % (len(data), BLOB_MAX_BYTES))
     blob = CACHE / ("files-%s-%s-%s.bin" % (board, form, _sha(bytes(data))))
     if not blob.exists():
+        for old in CACHE.glob("files-%s-%s-*.bin" % (board, form)):
+            old.unlink()
         blob.write_bytes(bytes(data) or bytes(4))
     b = Board(elf, board, timeout_s, blob)
     try:
@@ -585,7 +591,8 @@ def bench_form(board, form, micropython=None, unlocked=True):
                     continue
                 out = b.exec("g.dump('r', %s)" % (call % lock))
                 ticks, phases, _states = parse_dump(out, "r")
-                result["locked" if lock else "unlocked"][name] = summarise(ticks, phases, overhead, scale, first)
+                mode = "locked" if lock else "unlocked"
+                result[mode][name] = summarise(ticks, phases, overhead, scale, first)
         out = b.exec("g.dump('fw', g.firmware_path('/ram/sil/frames.bin', '/ram/sil', %d, True, True))\n"
                      "g.print_ints('fake', g.FAKE_BUS_TICKS)\n" % FW_BENCH_SAMPLES)
         ticks, phases, _states = parse_dump(out, "fw")
@@ -642,7 +649,8 @@ def main(argv=None):
                         help="a MicroPython source tree to build instead of the vendored tarball")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("build", help="build the firmware (cached in build/arm/)")
-    p.add_argument("--board", default="m0", help="m0 (Cortex-M0, micro:bit), m3 (Cortex-M3, MPS2-AN385) or all")
+    p.add_argument("--board", default="m0",
+                   help="m0 (Cortex-M0, micro:bit), m3 (Cortex-M3, MPS2-AN385) or all")
     p.add_argument("--form", default="all", help="%s, or all" % ", ".join(FORMS))
     p = sub.add_parser("run", help="run a script on the board (modules available in --form)")
     p.add_argument("script")

@@ -279,3 +279,33 @@ def test_reset_in_flight_on_the_rp2040_resumes_from_the_scratch_registers(tmp_pa
     assert result["summary"]["reason"] == "landed"
     assert not (tmp_path / "board" / "resume.bin").exists()
     assert not (tmp_path / "board" / "armed.flag").exists()
+
+
+def test_an_allocation_under_the_heap_lock_is_counted_and_the_flight_goes_on_unlocked():
+    # sample() allocates once (a path no test took): the loop must not die in flight
+    from desktop.micropython_host import run_micropython
+
+    code = """
+from tests.sil import fake_machine
+fake_machine.install()
+import device.flightloop as fl
+class Loop(fl.FlightLoop):
+    def __init__(self):
+        self.period_us = 10000
+        self.done = False
+        self.missed = self.worst_late_us = self.samples = self.heap_lock_faults = 0
+        self.max_samples = 5
+        self.wdt = None
+        self.lock_heap = True
+        self.locked_at = []
+    def sample(self, dt_us):
+        self.locked_at.append(self.lock_heap)
+        if self.samples == 1:
+            [0] * 100
+    def after_sample(self):
+        self.samples += 1
+loop = Loop()
+print(loop.run(), loop.samples, loop.heap_lock_faults, loop.locked_at)
+"""
+    out = run_micropython(code, "unix").strip().splitlines()[-1]
+    assert out == "sample limit 5 1 [True, True, False, False, False]"
