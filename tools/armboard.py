@@ -77,7 +77,7 @@ MODULE_GLOBS = ("shared/*.py", "device/*.py", "device/drivers/*.py", "desktop/__
                 "desktop/fakes/*.py", "tools/__init__.py", "tools/bench_step.py",
                 "tools/synthetic_flight.py", "tools/armboard_guest.py")
 SIL_MODULES = ("tests/sil/__init__.py", "tests/sil/fake_machine.py", "tests/sil/fake_micropython.py",
-               "tests/sil/fake_time.py", "tests/sil/world.py", "tests/sil/measure.py")
+               "tests/sil/fake_time.py", "tests/sil/world.py")
 FIRMWARE_DIRS = ("shared/", "device/")  # check-tables: the flight firmware (not the test fakes)
 PACKAGE_INITS = ("tests/__init__.py",)  # namespace packages on CPython: frozen with a comment
 # An empty frozen-as-source module ends the frozen table early and a later import crashes the
