@@ -9,6 +9,7 @@ included; ``overhead()`` gives it), array('b') of the flight phase per sample (P
 COAST, DESCENT below) and array('i') of the integer states the tests compare.
 """
 
+import gc
 import time
 from array import array
 
@@ -284,6 +285,8 @@ def firmware_path(frames_path, workdir, samples, lock=True, replay=False):
         global FAKE_BUS_TICKS
         FAKE_BUS_TICKS = array("i", ticks)
         hw.sensors = ReplaySensors(pressures, accels, haves)
+        loop = None  # its log buffer's block is the one the new loop's can take
+        gc.collect()
         loop = FlightLoop(hw, load_config({}), flightlog.LogBuffer(b["log_ram_kb"] * 1024))
         for i in range(samples):
             if lock:
