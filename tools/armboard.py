@@ -16,8 +16,8 @@ Forms (how the project's modules reach the board):
   filled over the raw REPL (as ``mpremote cp`` of .mpy files would);
 - ``source``: .py files loaded at run time from that RAM filesystem.
 
-Modules: ``shared/``, ``device/``, the software-in-the-loop fakes (``tests/sil/``,
-``desktop/fakes/``), ``tools/bench_step.py``, ``tools/synthetic_flight.py`` and
+Modules: ``shared/``, ``device/``, the software-in-the-loop fakes (``desktop/hosts/sil/``,
+``desktop/sim/fakes/``), ``tools/bench_step.py``, ``tools/synthetic_flight.py`` and
 ``tools/armboard_guest.py``.
 
 MicroPython comes from ``third_party/micropython/`` (the vendored tarball, with the patch that
@@ -45,7 +45,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 if __name__ == "__main__":
-    sys.path.insert(0, str(ROOT))  # the bench imports tests.sil for the firmware's flight
+    sys.path.insert(0, str(ROOT))  # the bench imports desktop.hosts.sil for the firmware's flight
 VENDOR = ROOT / "third_party" / "micropython"
 TARBALL = VENDOR / "micropython-1c3c2011.tar.gz"
 PATCH = VENDOR / "qemu-ticks-cpu.patch"
@@ -76,10 +76,12 @@ CFLAGS_EXTRA_M0 = " -DMICROPY_EMIT_INLINE_THUMB=1"
 
 # Files put on the board (relative to the repository root).
 MODULE_GLOBS = ("shared/*.py", "device/*.py", "device/drivers/*.py", "desktop/__init__.py",
-                "desktop/fakes/*.py", "tools/__init__.py", "tools/bench_step.py",
+                "desktop/sim/__init__.py", "desktop/sim/fakes/*.py", "desktop/hosts/__init__.py",
+                "tools/__init__.py", "tools/bench_step.py",
                 "tools/synthetic_flight.py", "tools/armboard_guest.py")
-SIL_MODULES = ("tests/sil/__init__.py", "tests/sil/fake_machine.py", "tests/sil/fake_micropython.py",
-               "tests/sil/fake_time.py", "tests/sil/world.py")
+SIL_MODULES = ("desktop/hosts/sil/__init__.py", "desktop/hosts/sil/fake_machine.py",
+               "desktop/hosts/sil/fake_micropython.py", "desktop/hosts/sil/fake_time.py",
+               "desktop/hosts/sil/world.py")
 FIRMWARE_DIRS = ("shared/", "device/")  # check-tables: the flight firmware (not the test fakes)
 PACKAGE_INITS = ("tests/__init__.py",)  # namespace packages on CPython: frozen with a comment
 # An empty frozen-as-source module ends the frozen table early and a later import crashes the
@@ -571,8 +573,8 @@ FW_BENCH_SCENARIO = dict(duration_s=16, launch_s=1.0, boost_mps2=80.0, burn_s=1.
 
 def firmware_files(workdir, scenario):
     """{board path: bytes} of board.json, config.json and the sensor frames of a SIL scenario."""
-    from tests.sil.flightgen import Scenario
-    from tests.sil.host import prepare
+    from desktop.hosts.sil.flightgen import Scenario
+    from desktop.hosts.sil.host import prepare
 
     prepare(workdir, Scenario(**scenario))
     return {"sil/" + n: (Path(workdir) / n).read_bytes() for n in ("board.json", "config.json", "frames.bin")}

@@ -223,14 +223,14 @@ def count_altitude(n, lock=True):
 def firmware_path(frames_path, workdir, samples, lock=True, replay=False):
     """``FlightLoop.sample()`` (sensor reads through the fake I2C bus and the drivers, pressure to
     altitude, the state machine, pyro, log record, status) and ``after_sample()`` on the fake
-    machine (tests/sil), as the board runs them. States per sample: pressure_q4_pa, accel_mmps2,
+    machine (desktop/hosts/sil), as the board runs them. States per sample: pressure_q4_pa, accel_mmps2,
     alt_q4, vel_q4, state, baro_errors + accel_errors. With ``replay`` the sensor readings of
     that run are then replayed as integers (``ReplaySensors``: no bus, no
     driver) through a new loop, whose counts are returned: the firmware's own cost. Call once
     per interpreter: it installs the fake ``machine``, ``time`` and ``micropython`` modules."""
     tc = _ticks
     td = _diff
-    from tests.sil import fake_machine, fake_time
+    from desktop.hosts.sil import fake_machine, fake_time
 
     fake_machine.install()
     fake_machine.install_world(frames_path)

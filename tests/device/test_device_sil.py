@@ -283,10 +283,10 @@ def test_reset_in_flight_on_the_rp2040_resumes_from_the_scratch_registers(tmp_pa
 
 def test_an_allocation_under_the_heap_lock_is_counted_and_the_flight_goes_on_unlocked():
     # sample() allocates once (a path no test took): the loop must not die in flight
-    from desktop.micropython_host import run_micropython
+    from desktop.hosts.micropython import run_micropython
 
     code = """
-from tests.sil import fake_machine
+from desktop.hosts.sil import fake_machine
 fake_machine.install()
 import device.flightloop as fl
 class Loop(fl.FlightLoop):

@@ -2,7 +2,7 @@
 (tools/armboard.py), run under ``qemu-system-arm -icount shift=0``.
 
 In every deployed form (frozen bytecode, frozen source, .mpy and .py loaded at run time) the
-whole flight of tools/bench_step.py, the extreme flights of tests/test_micropython_core.py and
+whole flight of tools/bench_step.py, the extreme flights of tests/shared/test_micropython_core.py and
 the firmware's per-sample path (device/ on the software-in-the-loop fakes) run heap-locked (any
 allocation raises MemoryError) and give the integer states CPython gives, sample by sample. The
 full step stays within its instruction budget (instruction counts under icount are exact: this is
@@ -19,9 +19,9 @@ import sys
 
 import pytest
 
-from tests.sil.flightgen import Scenario
-from tests.sil.host import prepare
-from tests.test_micropython_core import FLIGHTS
+from desktop.hosts.sil.flightgen import Scenario
+from desktop.hosts.sil.host import prepare
+from tests.shared.test_micropython_core import FLIGHTS
 from tools import armboard
 from tools import armboard_guest as guest
 from tools.bench_step import run_fc_flight, run_flight
