@@ -377,16 +377,26 @@ def build(board, kind, micropython=None, quiet=False):
     return elf, time.monotonic() - t0
 
 
+def frozen_tuple_long_ints(c_text, prefix="const_obj_shared_"):
+    """Names of the long-int objects inside constant tuples of mpy-tool's frozen C (``prefix``: the
+    modules checked). Each would allocate when used; true long ints outside tuples (such as the
+    log's CRC constants) are not the freezer's doing and are not listed."""
+    longs = set(re.findall(r"static const mp_obj_int_t (%s\w+) = \{\{&mp_type_int\}" % prefix, c_text))
+    in_tuples = set()
+    tuple_re = r"mp_rom_obj_tuple_t %s\w+ = \{\{&mp_type_tuple\}, \d+, \{(.*?)\}\};" % prefix
+    for body in re.findall(tuple_re, c_text, re.S):
+        in_tuples.update(re.findall(r"&(%s\w+)\)" % prefix, body))
+    return sorted(longs & in_tuples)
+
+
 def _check_frozen_ints(out):
-    """The frozen shared/ must hold no long-int constant: each would allocate when used per sample.
-    (device/ has a few true long ints, such as CRC constants, outside the per-sample arithmetic.)"""
+    """Refuse a frozen shared/ whose constant tuples hold long ints."""
     content = out / "frozen_content.c"
     if content.exists():
-        hits = re.findall(r"static const mp_obj_int_t (const_obj_shared_\S+) = \{\{&mp_type_int\}",
-                          content.read_text())
+        hits = frozen_tuple_long_ints(content.read_text())
         if hits:
-            raise ArmError("frozen shared/ holds %d long-int constants (%s ...): an int outside +-8191 in "
-                           "a constant tuple; see python tools/armboard.py check-tables"
+            raise ArmError("frozen shared/ holds %d long-int constants in tuples (%s ...): an int outside "
+                           "+-8191 in a constant tuple; see python tools/armboard.py check-tables"
                            % (len(hits), hits[0]))
 
 

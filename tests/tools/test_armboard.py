@@ -65,6 +65,14 @@ def test_big_tuple_ints_finds_them(tmp_path):
     assert armboard.big_tuple_ints(src) == [(3, -8193), (4, 9000)]
 
 
+def test_frozen_tuple_long_ints_finds_only_those_in_tuples():
+    c_text = ("static const mp_obj_int_t const_obj_shared_a_0_1 = {{&mp_type_int}, {.neg=0}};\n"
+              "static const mp_obj_int_t const_obj_shared_a_2 = {{&mp_type_int}, {.neg=0}};\n"
+              "static const mp_rom_obj_tuple_t const_obj_shared_a_0 = {{&mp_type_tuple}, 2, {\n"
+              "    MP_ROM_INT(1),\n    MP_ROM_PTR(&const_obj_shared_a_0_1),\n}};\n")
+    assert armboard.frozen_tuple_long_ints(c_text) == ["const_obj_shared_a_0_1"]
+
+
 @pytest.fixture(scope="session")
 def fw_files(tmp_path_factory):
     """board.json, config.json and the frames of the firmware-path flight, as board files."""
