@@ -9,8 +9,8 @@
    sample's ``dt_us`` is the difference of the deadlines actually used, a multiple of the period
    (never silently absorbed: the filter predicts across it, the log records it);
 2. ``sample(dt_us)``, the step: sensor reads, pressure to altitude, ``FlightComputer.step``,
-   the pyro outputs, one log record, the status pattern. Allocation-free (``LOCK_HEAP = True``
-   runs it under ``micropython.heap_lock()``, as the software-in-the-loop tests do);
+   the pyro outputs, one log record, the status pattern. Allocation-free, and run under
+   ``micropython.heap_lock()`` (``LOCK_HEAP``): see below;
 3. ``after_sample()``, the safe point: pulse guards, status pattern changes, the resume record
    (``device/resume.py``: at every event, and every 0.1 s where there is RTC memory),
    pad epochs, flushing log blocks (descent only) and garbage collection (pad only, at block
@@ -23,6 +23,15 @@ with the same readings; after ``PAD_EPOCH_S`` it replaces the first one (at a bl
 only while both are on the pad and quiet), and the RAM log keeps only the records from the start
 of the one in use. The one in use at launch has between one and two epochs of pad behind it: a
 full calibration (DESIGN.md D8), and a log that starts where it started.
+
+Heap lock. With the heap unlocked, MicroPython allocates the frame of every call that needs more
+than a few words on the heap and frees it on return; locked, those frames go on the C stack. On a
+Cortex-M0 (MicroPython's qemu port, tools/armboard.py) the locked step costs 29-63 % less and is
+allocation-free by construction (docs/ARM.md), so the loop runs ``sample()`` locked. A
+sensor's exception is still raised and caught under the lock (MicroPython then uses its static
+emergency exception object). An allocation the tests never met would raise ``MemoryError`` in
+the middle of a sample: the loop counts it (``heap_lock_faults``), runs the rest of the flight
+unlocked, and goes on with the next sample.
 """
 
 import gc
@@ -46,7 +55,7 @@ DISARM_DEBOUNCE_MS = 500
 # below this: no firing path is open then (DESIGN.md D1). A real boost passes it in well under
 # DISARM_DEBOUNCE_MS, so a switch bouncing open at ignition cannot disarm a flight.
 NOT_FLOWN_MM = 10000
-LOCK_HEAP = False  # run sample() under micropython.heap_lock() (tests; any allocation raises)
+LOCK_HEAP = True  # run sample() under micropython.heap_lock() (see the module docstring)
 # The 32-bit wasm MicroPython's collector corrupts its heap when called inside functions.
 _CAN_COLLECT = getattr(sys.implementation, "_build", "") != "wasi"
 
@@ -86,6 +95,8 @@ class FlightLoop:
         self.worst_late_us = 0
         self.worst_work_us = 0
         self.worst_dt_us = 0
+        self.lock_heap = LOCK_HEAP
+        self.heap_lock_faults = 0  # MemoryErrors raised by sample() under the heap lock
         self.events_seen = 0
         self.event_log = []  # (sample index, events, agl_mm) appended at safe points
         self.done = False
@@ -125,10 +136,15 @@ class FlightLoop:
             prev = deadline
             if self.wdt is not None:
                 self.wdt.feed()
-            if LOCK_HEAP:
+            if self.lock_heap:
                 micropython.heap_lock()
                 try:
                     self.sample(dt_us)
+                except MemoryError:
+                    # an allocation on a path no test took: this sample is cut short; fly on
+                    # unlocked so that it cannot cost every following sample too
+                    self.heap_lock_faults += 1
+                    self.lock_heap = False
                 finally:
                     micropython.heap_unlock()
             else:
@@ -280,6 +296,7 @@ class FlightLoop:
             "worst_late_us": self.worst_late_us,
             "worst_dt_us": self.worst_dt_us,
             "worst_work_us": self.worst_work_us,
+            "heap_lock_faults": self.heap_lock_faults,
             "max_agl_mm": fc.max_agl_mm,
             "max_vel_mmps": fc.max_vel_mmps,
             "state": fc.state,

@@ -44,7 +44,7 @@ above the proof climb, after the lockout, an averaged deceleration between ``coa
 and 10 g, and the accelerometer's lowest possible velocity at or below ``apogee_guard_mps``.
 Without a usable barometer (``mode`` accel only) apogee is the accelerometer's highest possible
 velocity reaching zero (``_accel_only_apogee``). The decision mode and the barometer's
-exclusion come from ``_arbitrate`` (docs/DESIGN.md D15).
+exclusion come from ``_arbitrate`` (docs/DESIGN.md D16).
 
 Safety (docs/DESIGN.md D1): every firing path (apogee, apogee delay, backup timer,
 main) requires ``flight_proven``: a boost sustained for ``launch_accel_time_s`` *and* a climb of

@@ -13,7 +13,7 @@ be used:
 usable reading for ``sensor_lost_s`` is lost (``baro_ok`` / ``accel_ok`` False), and the proof of
 flight falls back to the other sensor's (shared/flight.py).
 
-``SensorHealth.watch()`` then judges each sensor over time (docs/DESIGN.md D15, "Sensor
+``SensorHealth.watch()`` then judges each sensor over time (docs/DESIGN.md D16, "Sensor
 arbitration"): frozen (identical readings for ``baro_stuck_s`` in flight; for the accelerometer
 ``accel_stuck_s`` while it reads more than 1 g, where noise and change are certain; a reading
 held at the largest of the flight is its full scale: clipped, not frozen), lost (``age()``), and

@@ -11,6 +11,9 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "micropython: runs code on a real MicroPython interpreter")
     config.addinivalue_line("markers", "slow: takes seconds (RocketPy, MicroPython, subprocesses); "
                                        "the fast lane, pytest -m 'not slow', leaves it out")
+    config.addinivalue_line("markers", "arm: runs on MicroPython's qemu port for a Cortex-M0 "
+                                       "(tools/armboard.py; needs gcc-arm-none-eabi, "
+                                       "libnewlib-arm-none-eabi, qemu-system-arm)")
 
 
 def pytest_collection_modifyitems(config, items):

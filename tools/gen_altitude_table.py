@@ -256,10 +256,13 @@ def measure(table):
 
 
 def _format_ints(name, values, per_line=10):
-    lines = [name + " = ("]
+    # A list literal made a tuple at import, not a tuple literal: MicroPython's freezer (mpy-tool)
+    # stores an int outside +-8191 inside a constant tuple as a long-int object, which allocates
+    # in every use. The ints of a list literal are compiled as small ints.
+    lines = [name + " = tuple(["]
     for k in range(0, len(values), per_line):
         lines.append("    " + ", ".join(str(v) for v in values[k:k + per_line]) + ",")
-    lines.append(")")
+    lines.append("])")
     return "\n".join(lines)
 
 
@@ -299,6 +302,7 @@ Largest |intermediate| over all segments and fractions: {table["biggest_intermed
 """
 
 # fmt: off
+# tuple([...]) so that frozen firmware keeps every value a small int (see _format_ints).
 '''
     body = [
         f"P_MIN_Q4 = {P_MIN_Q4}",

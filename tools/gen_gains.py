@@ -44,12 +44,12 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg
 
-OUT = Path(__file__).resolve().parent.parent / "shared" / "gains_table.py"
+ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT) not in sys.path:  # run as a script: make the project's packages importable
+    sys.path.insert(0, str(ROOT))
+from desktop.study.baselines import SEED_R, seed_kalman_gain  # noqa: E402  (the seed paper's recursion)
 
-SEED_R = np.diag([35.8229, 0.0012])
-SEED_Q = np.diag([0.0, 0.0, 1.0])
-SEED_T_S = 0.05
-SEED_ITERATIONS = 20
+OUT = ROOT / "shared" / "gains_table.py"
 
 SIGMA_JERK = 2.0  # sqrt of white-jerk spectral density, m/s^2.5 (AltOS sigma_m)
 SIGMA_ALT_M = 6.0
@@ -101,16 +101,9 @@ def white_jerk_q(t_s, sigma_jerk=SIGMA_JERK):
     ])
 
 
-def seed_gain(h=H_BOTH, r=SEED_R, t_s=SEED_T_S, q=SEED_Q, iterations=SEED_ITERATIONS):
-    """The seed's MATLAB recursion, operation for operation. Returns K, shape (3, n_meas)."""
-    a = transition(t_s)
-    p = np.eye(3)
-    k = None
-    for _ in range(iterations):
-        k = p @ h.T @ np.linalg.inv(h @ p @ h.T + r)
-        p = (np.eye(3) - k @ h) @ p
-        p = a @ p @ a.T + q
-    return k
+def seed_gain(h=H_BOTH, r=SEED_R):
+    """The seed paper's MATLAB recursion at its T = 0.05 s, for the measurement rows ``h``."""
+    return seed_kalman_gain(R=r, H=h)
 
 
 # The Riccati solution must agree with the doubled recursion to this relative tolerance (both are
@@ -270,8 +263,11 @@ def encode_row(rate_hz, both, baro, accel, coast, late):
 
 
 def _row_lines(row):
-    text = textwrap.wrap(repr(row) + ",", 96, break_on_hyphens=False)
-    return ["    " + text[0]] + ["     " + line for line in text[1:]]
+    # A list literal made a tuple at import, not a tuple literal: MicroPython's freezer (mpy-tool)
+    # stores an int outside +-8191 inside a constant tuple as a long-int object, and every gain
+    # product with it then allocates. The ints of a list literal are compiled as small ints.
+    text = textwrap.wrap("tuple(%r)," % (list(row),), 96, break_on_hyphens=False)
+    return ["    " + text[0]] + ["           " + line for line in text[1:]]
 
 
 def decode(mantissa, shift):
@@ -356,6 +352,7 @@ def render():
         "Q = diag(0, 0, 1), T = 0.05 s); only for 20 Hz; no bias or late-coast model (its combined gains).",
         '"""',
         "",
+        "# Rows are tuple([...]) so that frozen firmware keeps every gain a small int (_row_lines).",
         "PROJECT = (",
     ]
     for rate in RATES_HZ:

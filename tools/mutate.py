@@ -179,7 +179,7 @@ MUTANTS = [
      "self.det.gate_alt_mm = GATE_ALT_MM",
      "self.det.gate_alt_mm = 0",
      PAD_TESTS + "::test_barometer_transient_in_coast_does_not_fire_early"),
-    # sensor arbitration and re-convergence (docs/DESIGN.md D15, D16)
+    # sensor arbitration and re-convergence (docs/DESIGN.md D16, D17)
     ("arb-apogee-guard", FLIGHT,
      "and not (self.arb.valid and self.arb.lower_mmps() > cfg.apogee_guard_mmps)\n",
      "\n",

@@ -126,11 +126,12 @@ def seed_transition(T: float = SEED_T_S) -> np.ndarray:
     return np.array([[1.0, T, 0.5 * T * T], [0.0, 1.0, T], [0.0, 0.0, 1.0]])
 
 
-def seed_kalman_gain(T: float = SEED_T_S, R=SEED_R, Q=SEED_Q, iterations: int = SEED_ITERATIONS):
+def seed_kalman_gain(T: float = SEED_T_S, R=SEED_R, Q=SEED_Q, iterations: int = SEED_ITERATIONS, H=SEED_H):
     """The seed's gain recursion, as its MATLAB listing (P = I; 20 times: K = P H'/(H P H' + R);
-    P = (I - K H) P; P = A P A' + Q). Returns K (3 x 2)."""
+    P = (I - K H) P; P = A P A' + Q). Returns K (3 x rows of H). The one implementation:
+    tools/gen_gains.py uses it for the SEED table (also with the barometer or accelerometer row
+    of H alone)."""
     A = seed_transition(T)
-    H = SEED_H
     P = np.eye(3)
     K = None
     for _ in range(iterations):

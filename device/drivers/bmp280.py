@@ -57,7 +57,8 @@ _STATUS_IM_UPDATE = const(0x01)
 
 _OSRS_VALUES = (0, 1, 2, 4, 8, 16)  # code 0 = skipped
 _IIR_VALUES = (0, 2, 4, 8, 16)
-_T_SB_US = (500, 62500, 125000, 250000, 500000, 1000000, 2000000, 4000000)
+# a list made a tuple: frozen firmware would store these ints as long-int objects in a constant tuple
+_T_SB_US = tuple([500, 62500, 125000, 250000, 500000, 1000000, 2000000, 4000000])
 
 
 # raised from read() (pre-built: the per-sample path allocates nothing)

@@ -44,7 +44,8 @@ _CMD_ADC_READ = const(0x00)
 _CMD_PROM_READ = const(0xA0)
 
 _OSR_VALUES = (256, 512, 1024, 2048, 4096)
-_CONVERSION_US = (600, 1170, 2280, 4540, 9040)  # datasheet maximum per OSR
+# datasheet maximum per OSR; a list made a tuple: frozen firmware would store 9040 as a long int
+_CONVERSION_US = tuple([600, 1170, 2280, 4540, 9040])
 
 _IDLE = const(0)
 _CONVERTING_P = const(1)

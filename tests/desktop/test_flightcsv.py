@@ -540,3 +540,19 @@ def test_docs_example_reads(tmp_path):
     assert len(log) == 7 and np.isnan(log.accel_mps2[3])
     assert log.metadata_float("ground_pressure_pa") == 101325.0
     assert log.metadata_float("true_apogee_time_s") == 14.02
+
+
+FIRM_DIR = Path(__file__).parents[1] / "data" / "flights" / "firm"
+
+
+@pytest.mark.parametrize("name, apogee_s", [("firm-jackpot-1.csv", 1221.924), ("firm-jackpot-3.csv", 800.500),
+                                            ("firm-jackpot-4.csv", 3354.882)])
+def test_firm_flights_read_with_provenance_and_reference_apogee(name, apogee_s):
+    """The FIRM flights are flight CSVs with their source, licence and reference apogee; the
+    licence they were published under sits beside them."""
+    log = read_flight_csv(FIRM_DIR / name)
+    assert log.metadata["license"] == "MIT" and "AirbrakesV2" in log.metadata["source"]
+    assert log.metadata_float("reference_apogee_time_s") == apogee_s
+    assert log.time_s[0] < apogee_s < log.time_s[-1] and log.has_accel and log.has_pressure
+    assert "MIT License" in (FIRM_DIR / "LICENSE-AirbrakesV2.txt").read_text()
+    assert name in (FIRM_DIR / "README.md").read_text()

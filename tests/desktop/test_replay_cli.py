@@ -25,7 +25,7 @@ def test_json_output_and_main_altitude_override(capsys):
     names = [e["event"] for e in data["events"] if e["event"] not in ("health", "mode")]
     assert names == ["launch", "burnout", "apogee", "drogue", "main"]
     assert set(data["events"][0]) == {"event", "time_s", "altitude_m"}
-    # the barometer excluded after burnout while it catches up (docs/DESIGN.md D15), then back
+    # the barometer excluded after burnout while it catches up (docs/DESIGN.md D16), then back
     modes = [e["detail"] for e in data["events"] if e["event"] == "mode"]
     assert modes == ["accel only (barometer excluded)", "both"]
     main_ev = data["events"][-1]

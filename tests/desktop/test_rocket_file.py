@@ -63,7 +63,7 @@ def write(tmp_path, text, name="r.toml"):
 def test_examples_load():
     names = sorted(p.name for p in ROCKETS.glob("*.toml"))
     assert names == ["c6_model.toml", "j360_sport.toml", "k1000_min_dia.toml", "k400_dual_deploy.toml",
-                     "m1670_3km.toml"]
+                     "m1670_3km.toml", "m1670_min_dia.toml"]
     for p in ROCKETS.glob("*.toml"):
         spec = load_rocket(p)
         assert spec.name and spec.motor.total_impulse_ns > 0

@@ -211,6 +211,7 @@ def test_events_and_consistency(j360):
     ("k400_dual_deploy", 1200, 2300, None),
     ("k1000_min_dia", 3000, 5500, "mach1.2"),
     ("m1670_3km", 2600, 3400, None),
+    pytest.param("m1670_min_dia", 7000, 10000, "mach2", marks=pytest.mark.slow),
 ])
 def test_example_rockets(name, lo, hi, check):
     tr = simulate_rocket(load_rocket(ROCKETS / f"{name}.toml"), after_main_s=1.0)
@@ -219,6 +220,8 @@ def test_example_rockets(name, lo, hi, check):
         assert np.max(tr.accel_mps2) > 16 * G0
     if check == "mach1.2":
         assert tr.max_mach > 1.2
+    if check == "mach2":
+        assert tr.max_mach > 2.0
 
 
 def test_unstable_rocket_is_rejected(tmp_path):

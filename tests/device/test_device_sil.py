@@ -13,9 +13,19 @@ import numpy as np
 import pytest
 
 from desktop.hosts.sil.flightgen import Scenario
-from desktop.hosts.sil.host import ARM_PIN, DROGUE_PIN, MAIN_PIN, rises, run_sil
+from desktop.hosts.sil.host import ARM_PIN, DROGUE_PIN, MAIN_PIN, rises
+from desktop.hosts.sil.host import run_sil as _run_sil
 from desktop.io.logdecode import read_log, to_columns, write_csv
 from tests.support.decoded_replay import check_replay
+
+
+def run_sil(*args, **kw):
+    """The host's run, failing on an allocation under the heap lock (the loop would survive it by
+    counting it in heap_lock_faults and flying on unlocked)."""
+    result = _run_sil(*args, **kw)
+    assert not (result.get("summary") or {}).get("heap_lock_faults"), "sample() allocated under the heap lock"
+    return result
+
 
 pytestmark = pytest.mark.micropython
 
@@ -170,7 +180,7 @@ def test_baro_dies_in_flight_counted_no_crash(tmp_path):
     d = rises(result, DROGUE_PIN)
     assert len(d) == 1 and d[0][1] == PULSE_US
     # accelerometer only from 4 s after launch: apogee when its highest possible velocity is 0,
-    # never early (docs/DESIGN.md D15), or the backup timer
+    # never early (docs/DESIGN.md D16), or the backup timer
     assert t_apogee - 0.5 <= d[0][0] / 1e6 <= 30 + backup_s + 0.2
     # never landed (no barometer): the log is still in RAM; it is the loop that matters here
     assert result["summary"] is None
@@ -273,3 +283,33 @@ def test_reset_in_flight_on_the_rp2040_resumes_from_the_scratch_registers(tmp_pa
     assert result["summary"]["reason"] == "landed"
     assert not (tmp_path / "board" / "resume.bin").exists()
     assert not (tmp_path / "board" / "armed.flag").exists()
+
+
+def test_an_allocation_under_the_heap_lock_is_counted_and_the_flight_goes_on_unlocked():
+    # sample() allocates once (a path no test took): the loop must not die in flight
+    from desktop.hosts.micropython import run_micropython
+
+    code = """
+from desktop.hosts.sil import fake_machine
+fake_machine.install()
+import device.flightloop as fl
+class Loop(fl.FlightLoop):
+    def __init__(self):
+        self.period_us = 10000
+        self.done = False
+        self.missed = self.worst_late_us = self.samples = self.heap_lock_faults = 0
+        self.max_samples = 5
+        self.wdt = None
+        self.lock_heap = True
+        self.locked_at = []
+    def sample(self, dt_us):
+        self.locked_at.append(self.lock_heap)
+        if self.samples == 1:
+            [0] * 100
+    def after_sample(self):
+        self.samples += 1
+loop = Loop()
+print(loop.run(), loop.samples, loop.heap_lock_faults, loop.locked_at)
+"""
+    out = run_micropython(code, "unix").strip().splitlines()[-1]
+    assert out == "sample limit 5 1 [True, True, False, False, False]"

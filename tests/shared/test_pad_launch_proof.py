@@ -161,7 +161,7 @@ def test_barometer_lost_before_proof_falls_back_to_the_accelerometer(lost_at):
     # the backup timer as docs/CONFIG.md tells users: nominal apogee (22.4 s after launch) + 3 s
     fc, events, _ = run(dts, alts, accs, have, backup_drogue_s=25)
     drogue, launch = first(events, EV_DROGUE), first(events, EV_LAUNCH)
-    # the accelerometer-only apogee (docs/DESIGN.md D15): never early, late by at most its error
+    # the accelerometer-only apogee (docs/DESIGN.md D16): never early, late by at most its error
     # budget, or the backup timer first
     assert drogue is not None and apogee - 50 <= drogue <= launch + 2500 + 1
 
