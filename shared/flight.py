@@ -279,9 +279,9 @@ class FlightComputer:
             total = self._us_rem + dt_us
             self.now_ms += total // 1000
             self._us_rem = total % 1000
-        health.age(dt_us // 1000, have)
         state = self.state
         have = health.watch(self.now_ms, alt_mm, accel_mmps2, have, self.launched and state <= DROGUE)
+        health.age(dt_us // 1000, have)
         if health.changed:
             self.events |= EV_HEALTH
         clipped = health.clipped

@@ -92,6 +92,7 @@ class SensorHealth:
         self.baro_rate_max_mmps = config.baro_rate_max_mmps
         self.flags = 0
         self.changed = False  # flags changed at this sample
+        self._stuck = 0  # this sample's frozen flags (watch), completed by age
         self.baro_spikes = 0  # count of impossible barometric readings not used
         self.baro_moved = False  # this sample's barometric reading differs from the previous one
         self._baro_last = 0
@@ -128,8 +129,6 @@ class SensorHealth:
             if in_flight and self._baro_seen and now_ms - self._baro_run_ms >= self.baro_stuck_ms:
                 flags |= HEALTH_BARO_STUCK
                 have &= HAVE_ACCEL
-            if not self.baro_ok:  # age(): no usable reading for sensor_lost_s
-                flags |= HEALTH_BARO_LOST
         if self.has_accel:
             if have & HAVE_ACCEL:
                 size = accel_mmps2 if accel_mmps2 >= 0 else -accel_mmps2
@@ -150,13 +149,11 @@ class SensorHealth:
             if in_flight and self._acc_seen and now_ms - self._acc_run_ms >= self.accel_stuck_ms:
                 flags |= HEALTH_ACCEL_STUCK
                 have &= HAVE_BARO
-            if not self.accel_ok:
-                flags |= HEALTH_ACCEL_LOST
-        self.changed = flags != self.flags
-        self.flags = flags
+        self._stuck = flags
         return have
     def age(self, dt_ms, have):
-        """Count the time without a usable reading (``have`` as ``judge`` returned it)."""
+        """Count the time without a usable reading (``have`` as ``judge`` and ``watch`` returned
+        it: a frozen sensor's readings are not usable either), and complete ``flags``."""
         if have & HAVE_BARO:
             self.baro_age_ms = 0
         elif self.baro_age_ms < _AGE_LIMIT_MS - dt_ms:
@@ -168,3 +165,10 @@ class SensorHealth:
         # a sensor silent for sensor_lost_s no longer proves anything
         self.baro_ok = self.has_baro and self.baro_age_ms < self.lost_ms
         self.accel_ok = self.has_accel and self.accel_age_ms < self.lost_ms
+        flags = self._stuck
+        if self.has_baro and not self.baro_ok:
+            flags |= HEALTH_BARO_LOST
+        if self.has_accel and not self.accel_ok:
+            flags |= HEALTH_ACCEL_LOST
+        self.changed = flags != self.flags
+        self.flags = flags
