@@ -68,8 +68,8 @@ from shared.apogee import SeedRule, VelocityRule
 from shared.arbitration import Arbitration
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
-from shared.kalman import RATE_LIMIT_Q4
 from shared.health import HEALTH_ACCEL_BAD, HEALTH_BARO_BAD, SensorHealth
+from shared.kalman import RATE_LIMIT_Q4
 from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
     ERR_BARO_ERRATIC,
     ERR_ORIENTATION,
@@ -732,7 +732,8 @@ class FlightComputer:
         # product below stays within 31 bits for 5 km and 600 s)
         fell_dm = (self._steady_agl_mm - self._good_agl_mm) // 100
         took_ds = (self._good_ms - self._steady_ms) // 100
-        if self._steady_ms < 0 or took_ds < _STEADY_MIN_DS or fell_dm * 10 < took_ds * _DESCENT_MIN_MMPS // 1000:
+        if (self._steady_ms < 0 or took_ds < _STEADY_MIN_DS
+                or fell_dm * 10 < took_ds * _DESCENT_MIN_MMPS // 1000):
             return since_drogue_ms >= cfg.main_delay_ms  # no steady descent seen: no prediction
         drop_dm = (self._good_agl_mm - cfg.main_deploy_mm) // 100
         return drop_dm <= 0 or self.now_ms - self._good_ms >= drop_dm * took_ds // fell_dm * 100

@@ -25,7 +25,8 @@ EARLY_LIMIT_S = 0.5  # issue 13: no drogue more than 0.5 s before the true apoge
 _FLIGHTS = {}
 
 
-def flight(rocket, faults=Faults(), **kw):
+def flight(rocket, faults=None, **kw):
+    faults = Faults() if faults is None else faults
     key = (id(rocket), repr(faults), tuple(sorted(kw.items())))
     if key not in _FLIGHTS:
         _FLIGHTS[key] = fly(rocket, faults, **kw)

@@ -10,8 +10,14 @@ import numpy as np
 import pytest
 
 import shared.detector as detector_module
-from tests.support.reconverge import (MODELS, integer_errors, linear_errors, linear_matrices, peaks_halve,
-                                      settling_s)
+from tests.support.reconverge import (
+    MODELS,
+    integer_errors,
+    linear_errors,
+    linear_matrices,
+    peaks_halve,
+    settling_s,
+)
 
 HORIZON_S = 35  # the slowest linear settling is 21 s: 1.5 x that fits
 
@@ -22,7 +28,7 @@ LINEAR_SETTLING_MAX_S = {"plain": 21.0, "coast_bias": 21.5, "late_coast": 21.5, 
 
 def _disturbances(model, n):
     rng = np.random.default_rng({"plain": 1, "coast_bias": 2, "late_coast": 3, "baro_only": 4}[model])
-    return zip(rng.uniform(-3000, 3000, n), rng.uniform(-600, 600, n))
+    return zip(rng.uniform(-3000, 3000, n), rng.uniform(-600, 600, n), strict=True)
 
 
 def _check(model, n):

@@ -96,9 +96,10 @@ def _drag_cd(cd, mach):
     return cd * (1.0 + 1.2 * math.exp(-((mach - 1.05) / 0.18) ** 2))
 
 
-def fly(rocket=MACH_ROCKET, faults=Faults(), rate_hz=100, pad_s=3.0, after_apogee_s=40.0, seed=0,
+def fly(rocket=MACH_ROCKET, faults=None, rate_hz=100, pad_s=3.0, after_apogee_s=40.0, seed=0,
         site_m=200.0, baro_noise_m=0.5, accel_noise_mps2=0.3):
     """Integrate the flight and read it with the faulty sensors (see the module docstring)."""
+    faults = Faults() if faults is None else faults
     rng = np.random.default_rng(seed)
     dt = 1.0 / rate_hz
     area = math.pi * rocket.diameter_m ** 2 / 4

@@ -9,8 +9,7 @@ reference propagates the same error through e <- (I - K H) A e in floats.
 
 import numpy as np
 
-from shared.detector import (HAVE_ACCEL, HAVE_BARO, HAVE_BOTH, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN,
-                             Detector)
+from shared.detector import HAVE_BARO, HAVE_BOTH, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.flight import COAST_ACC_MAX_Q4, GATE_ACC_MMPS2, GATE_ALT_MM
 from shared.gains_table import PROJECT
 
@@ -128,4 +127,4 @@ def peaks_halve(errors):
     """After the first stretch (the disturbance itself, until the filter's correction reverses the
     error's sign), each velocity-error peak is at most half the one before."""
     peaks = velocity_peaks(errors)[1:]
-    return all(b <= 0.5 * a for a, b in zip(peaks, peaks[1:]))
+    return all(b <= 0.5 * a for a, b in zip(peaks, peaks[1:], strict=False))
