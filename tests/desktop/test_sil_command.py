@@ -60,12 +60,13 @@ def test_recorded_altos_flight_through_the_firmware(tmp_path, capsys):
     assert main(["sil", "--out", str(out), "--flight", ALTOS, "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert main(["replay", "--check", str(out / "flight.log")]) == 0
-    # the firmware fires where the desktop replay of the same recording does: the drogue within two
-    # periods of the 50 Hz board (the ascent is recorded at 100 Hz), the main within 2.5 periods
-    # of the 10 Hz descent recording (the board filters the held readings at 50 Hz)
+    # the firmware fires where the desktop replay of the same recording does: the drogue within
+    # three periods of the 50 Hz board (the ascent is recorded at 100 Hz, and the sensor
+    # arbitration's windows end on the board's own samples), the main within 2.5 periods of the
+    # 10 Hz descent recording (the board filters the held readings at 50 Hz)
     log = read_flight(ALTOS)
     desktop = replay(log, config_for(log))
-    assert abs(report["drogue_pulses_log_s"][0] - desktop.first("drogue").time_s) <= 2 * PERIOD_S
+    assert abs(report["drogue_pulses_log_s"][0] - desktop.first("drogue").time_s) <= 3 * PERIOD_S
     assert abs(report["main_pulses_log_s"][0] - desktop.first("main").time_s) <= 2.5 * DESCENT_PERIOD_S
 
 
