@@ -9,9 +9,10 @@ import shutil
 
 import pytest
 
-from desktop.hosts.micropython import REPO_ROOT, run_micropython
+from desktop.hosts.micropython import REPO_ROOT
 from desktop.hosts.sil.flightgen import Scenario
 from desktop.hosts.sil.host import ARM_PIN, DROGUE_PIN, MAIN_PIN, rises, run_sil
+from tests.support.boot_run import boot_pin_states
 
 pytestmark = pytest.mark.micropython
 
@@ -67,19 +68,7 @@ def test_boot_py_drives_board_json_pins_low_whatever_pyro_pins_txt_says(tmp_path
     wd.mkdir()
     shutil.copy(PICO, wd / "board.json")
     (wd / "pyro_pins.txt").write_text(text)
-    code = """
-import json, os
-from desktop.hosts.sil import fake_machine
-fake_machine.install()
-import machine
-for n in (16, 17):
-    machine.Pin(n, machine.Pin.OUT, value=1)
-os.chdir(%r)
-exec(open(%r).read(), {"__name__": "boot"})
-print("RESULT", json.dumps([fake_machine.LEVELS[16], fake_machine.LEVELS[17], fake_machine.MODES[16]]))
-""" % (str(wd), str(REPO_ROOT / "device" / "boot.py"))
-    out = run_micropython(code, "unix")
-    assert json.loads(out.split("RESULT ")[1]) == [0, 0, 1]
+    assert boot_pin_states(wd) == [0, 0, 1]
 
 
 def test_arming_input_still_arms_with_good_files(tmp_path):

@@ -13,6 +13,7 @@ import shutil
 import pytest
 
 from desktop.hosts.micropython import REPO_ROOT, run_micropython
+from tests.support.boot_run import boot_pin_states
 from tools.deploy import bench_file
 
 pytestmark = pytest.mark.micropython
@@ -121,19 +122,7 @@ def test_boot_py_falls_back_to_board_json(tmp_path):
     """Without pyro_pins.txt, boot.py reads the pins from board.json; pins that were high (a soft
     reset in the middle of something) go low."""
     wd = _workdir(tmp_path)
-    code = """
-import json, os
-from desktop.hosts.sil import fake_machine
-fake_machine.install()
-import machine
-for n in (16, 17):
-    machine.Pin(n, machine.Pin.OUT, value=1)
-os.chdir(%r)
-exec(open(%r).read(), {"__name__": "boot"})
-print("RESULT", json.dumps([fake_machine.LEVELS[16], fake_machine.LEVELS[17], fake_machine.MODES[16]]))
-""" % (str(wd), str(REPO_ROOT / "device" / "boot.py"))
-    out = run_micropython(code, "unix")
-    assert json.loads(out.split("RESULT ")[1]) == [0, 0, 1]
+    assert boot_pin_states(wd) == [0, 0, 1]
 
 
 def test_bench_flight_matches_desktop_replay(tmp_path):
