@@ -8,7 +8,12 @@ flight; call ``step()`` once per sample with integer readings:
 - ``accel_mmps2``: specific force along the rocket's axis, mm/s^2, positive towards the nose
   (+9807 standing on the pad, about 0 in drag-free coast);
 - ``have``: which readings are fresh (``HAVE_BARO | HAVE_ACCEL``; a missing or stale reading is
-  never used: the filter predicts across it).
+  never used: the filter predicts across it). The sensors need not share samples: a barometer
+  slower than the accelerometer, or each sensor on its own sample, is the same flight. Every
+  decision uses each sensor's readings at their own times (shared/detector.py): the boost timer,
+  the accelerometer's integrals and its averaged reading count the accelerometer's own intervals,
+  the pad calibration averages each sensor's readings apart (shared/padcal.py), and a sample
+  without a reading of one sensor holds that sensor's last verdict.
 
 After ``step()``: ``state``, ``events`` (bit mask of what happened at this sample),
 ``pyro_drogue`` / ``pyro_main`` (output levels to drive now), ``agl_mm``, ``vel_mmps``.
@@ -126,6 +131,13 @@ _INT_LIMIT = const(0xFFFFF)
 # height agree within 10 m + 1/4 of the climb (tilt up to 40 degrees, barometer lag, calibration).
 _AGREE_MM = const(10000)
 
+# An accelerometer reading stands for the time since the previous one (its own interval). For the
+# boost timer at most this long: the period of the slowest rate the filter knows (10 Hz); after a
+# longer silence a boosting reading counts as one such period. Its integrals and averages take up
+# to _ACCEL_AGE_LIMIT_US (their own limit of 1 s).
+_ACCEL_HOLD_US = const(100000)
+_ACCEL_AGE_LIMIT_US = const(1000000)
+
 # Error flags in ``errors`` (ERR_ORIENTATION, ERR_PAD_BARO_STEP and ERR_BARO_ERRATIC come from
 # shared/padcal.py).
 ERR_ACCEL_CLIPPED = const(2)  # at least one reading at the accelerometer's full scale
@@ -167,6 +179,8 @@ class FlightComputer:
         # flight
         self.boost_ms = 0  # how long the boost acceleration has been sustained
         self.boost_max_ms = 0  # the longest such stretch
+        self._accel_age_us = 0  # time since the last accelerometer reading (capped)
+        self._accel_interval_us = _ACCEL_HOLD_US  # between its last two readings (capped)
         self.launched = False
         self.flight_proven = False
         self.climb_ms = 0  # time above proof_climb_m, less the time below since (barometer)
@@ -241,6 +255,20 @@ class FlightComputer:
             self.now_ms += total // 1000
             self._us_rem = total % 1000
         health.age(dt_us // 1000, have)
+        # the accelerometer's own interval: the time since its previous reading (0: none now)
+        accel_since_us = self._accel_age_us + dt_us
+        if accel_since_us > _ACCEL_AGE_LIMIT_US:
+            accel_since_us = _ACCEL_AGE_LIMIT_US
+        if measured_acc or clipped:
+            self._accel_age_us = 0
+            # the boost timer's: at most _ACCEL_HOLD_US; its period the shorter of the last two
+            accel_interval_us = accel_since_us if accel_since_us < _ACCEL_HOLD_US else _ACCEL_HOLD_US
+            accel_period_us = self._accel_interval_us if self._accel_interval_us < accel_interval_us \
+                else accel_interval_us
+            self._accel_interval_us = accel_interval_us
+        else:
+            self._accel_age_us = accel_since_us
+            accel_since_us = accel_interval_us = accel_period_us = 0
         state = self.state
         if state == PAD:
             pad = self.pad
@@ -274,10 +302,12 @@ class FlightComputer:
         self._set_model(state)
         if resuming:
             self.det.model = MODEL_PLAIN  # after a reset the saved velocity may be old: re-learn
-        if state >= DROGUE or self.diverged or resuming:
+        baro_alone = state >= DROGUE or self.diverged or resuming
+        if baro_alone:
             # under a parachute the orientation is unknown; a diverged or resumed filter follows
             # the barometer alone (see _set_model, restore_state)
             have &= HAVE_BARO
+        self.det.accel_off = baro_alone
         if dt_us:
             enabled = self._apogee_enabled()
             if cfg.baro_lag_ms and have & HAVE_BARO:
@@ -294,11 +324,11 @@ class FlightComputer:
         if have & HAVE_BARO:
             self.baro_agl_mm = alt_mm - self.ground_alt_mm
         self._update_averages(dt_us)
-        self._update_boost(dt_us, acc_kin, have, clipped)
+        self._update_boost(accel_interval_us, accel_period_us, acc_kin, have, clipped)
         if measured_acc or clipped:
-            self._integrate_accel(dt_us // 1000, acc_kin, clipped)
+            self._integrate_accel(accel_since_us // 1000, acc_kin, clipped)
         if measured_acc:
-            self.acc_meas_avg = _ema(self.acc_meas_avg, acc_kin, dt_us // 1000, _DECEL_TAU_MS)
+            self.acc_meas_avg = _ema(self.acc_meas_avg, acc_kin, accel_since_us // 1000, _DECEL_TAU_MS)
             if state != PAD and self.acc_meas_avg <= -cfg.coast_decel_mmps2:
                 self.coast_measured = True
         self._transition(apogee)
@@ -360,11 +390,14 @@ class FlightComputer:
         self.acc_avg_q4 = _ema(self.acc_avg_q4, self.kf.acc_q4, dt_us // 1000, _DECEL_TAU_MS)
         self.innov_avg_q4 = _ema(self.innov_avg_q4, self.kf.innov_alt_q4, dt_us // 1000, _INNOV_TAU_MS)
 
-    def _update_boost(self, dt_us, acc_kin, have, clipped):
-        if self.state > BOOST:
+    def _update_boost(self, accel_interval_us, accel_period_us, acc_kin, have, clipped):
+        """Boost time: a boosting accelerometer reading after a boosting one adds the time between
+        them, the first of a run one accelerometer period (a long silence before it is not known
+        to be boost); a sample without an accelerometer reading leaves it as it is."""
+        if self.state > BOOST or not (have & HAVE_ACCEL or clipped):
             return
-        if (have & HAVE_ACCEL and acc_kin > self.cfg.launch_accel_mmps2) or clipped:
-            self.boost_ms += dt_us // 1000
+        if acc_kin > self.cfg.launch_accel_mmps2 or clipped:
+            self.boost_ms += (accel_interval_us if self.boost_ms else accel_period_us) // 1000
             if self.boost_ms > self.boost_max_ms:
                 self.boost_max_ms = self.boost_ms
         else:

@@ -294,3 +294,39 @@ def test_false_launch_returns_to_pad_and_a_real_flight_still_flies():
                 drogue = i
     assert BOOST in states[:len(dts)] and states[len(dts) - 1] == PAD and fc.errors & ERR_FALSE_LAUNCH
     assert drogue is not None and abs(drogue - apogee) <= 15  # 0.3 s at 50 Hz
+
+
+@pytest.mark.parametrize("first", [HAVE_ACCEL, HAVE_BARO])
+def test_pad_calibration_with_the_sensors_on_alternate_samples(first):
+    # barometer and accelerometer on alternate samples, either one first: the ground reference is
+    # the barometer's average and the 1 g reference the accelerometer's, neither diluted by the
+    # samples without a reading, and the first reading is no "pressure step"
+    dts, alts, accs, _ = pad(6, rate=100, seed=3)
+    accs = accs + 400  # an accelerometer reading 0.4 m/s^2 high on the pad
+    other = HAVE_BARO if first == HAVE_ACCEL else HAVE_ACCEL
+    have = np.where(np.arange(len(dts)) % 2 == 0, first, other)
+    fc, events, pyro = run(dts, np.where(have == HAVE_BARO, alts, 0), np.where(have == HAVE_ACCEL, accs, 0),
+                           have, **ALL_ON)
+    assert fc.errors == 0 and not events and not pyro
+    assert abs(fc.ground_alt_mm - 300000) <= 300  # 1 m noise averaged over a block
+    assert abs(fc.one_g_mmps2 - (G + 400)) <= 60
+
+
+def test_boost_time_counts_the_accelerometer_intervals():
+    # a 0.1 s boost threshold: readings every 20 ms on alternate 10 ms samples launch at the same
+    # time as readings every 20 ms on 20 ms samples (5 boosting readings), not at 10 of them
+    def launch_time_ms(step_ms, every):
+        dts, alts, accs, _ = pad(3, rate=1000 // step_ms, seed=1)
+        n_boost = int(0.3 * 1000 / step_ms)
+        dts = np.concatenate([dts, np.full(n_boost, step_ms * 1000)])
+        alts = np.concatenate([alts, np.full(n_boost, alts[-1])])
+        accs = np.concatenate([accs, np.full(n_boost, G + 60000)])
+        have = np.full(len(dts), HAVE_BOTH)
+        if every == 2:
+            have = np.where(np.arange(len(dts)) % 2 == 0, HAVE_BARO, HAVE_ACCEL)
+        _, events, _ = run(dts, alts, accs, have, **ALL_ON)
+        i = next(i for i, e in events if e & EV_LAUNCH)
+        return int(np.sum(dts[1:i + 1]) // 1000) - 3000
+    merged = launch_time_ms(20, 1)
+    assert merged == 80  # the 5th reading of the boost: 4 intervals + the first one's
+    assert abs(launch_time_ms(10, 2) - merged) <= 10
