@@ -13,6 +13,7 @@ import numpy as np
 from desktop.errors import OutputPathError
 from desktop.io.config_file import config_file_values
 from desktop.io.files import check_output_file
+from desktop.io.flightcsv import describe_duplicate_times
 from desktop.io.importers import read_flight
 from shared.altitude import pressure_to_alt_mm
 from shared.config import ConfigError, load_config
@@ -111,6 +112,9 @@ def replay(log, config):
                 if fc.events & (1 << bit):
                     events.append(Event(name, i, float(log.time_s[i]), fc.agl_mm / 1000))
     notes = []
+    duplicates = describe_duplicate_times(log.duplicate_times)
+    if duplicates:
+        notes.append(duplicates)
     if fc.ground_fixed:
         notes.append("ground reference from metadata ground_pressure_pa")
     else:
