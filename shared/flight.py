@@ -38,7 +38,9 @@ Transitions (``_transition``), each branch opening with its rule:
 | | | below the main altitude if the maximum rose `main_margin_m` | `main_guard_s`, |
 | | | above it, else at once; no barometer: `main_delay_s` after | `main_margin_m`, |
 | | | the drogue | `main_delay_s` |
+| | | main_deploy_m 0: never (no main, a single deployment) | |
 | main | landed | altitude within a band over a window | `landed_alt_m` |
+| drogue | landed | the same, when there is no main (main_deploy_m 0) | `landed_alt_m` |
 
 Apogee itself is declared by the filter's rule only while ``_apogee_enabled()``: coast, proven,
 above the proof climb, after the lockout, and an averaged deceleration between
@@ -520,8 +522,9 @@ class FlightComputer:
         elif state == DROGUE:
             # main: proven, after the guard time; at or below the main altitude descending when the
             # flight rose main_margin_m above it; without a barometer main_delay_s after the drogue
+            # (main_deploy_m 0: no main, a single deployment)
             since_ms = self.now_ms - self.drogue_fired_ms
-            if not self.flight_proven or since_ms < cfg.main_guard_ms:
+            if not cfg.main_deploy_mm or not self.flight_proven or since_ms < cfg.main_guard_ms:
                 main = False
             elif not self.health.baro_ok:
                 main = since_ms >= cfg.main_delay_ms
@@ -609,7 +612,8 @@ class FlightComputer:
         self._land_min_mm = self._land_max_mm = self.agl_mm
 
     def _landing_rule(self):
-        """Landed: in MAIN, the altitude stays within ``landed_alt_m`` over a window."""
+        """Landed: in MAIN (or in DROGUE with no main), the altitude stays within ``landed_alt_m``
+        over a window."""
         cfg = self.cfg
         agl = self.agl_mm
         if agl < self._land_min_mm:
@@ -617,7 +621,9 @@ class FlightComputer:
         if agl > self._land_max_mm:
             self._land_max_mm = agl
         if self.now_ms - self._land_start_ms >= cfg.landed_window_ms:
-            if (self.state == MAIN and self._land_max_mm - self._land_min_mm <= cfg.landed_alt_mm):
+            # landed under the main, or under the only parachute when there is no main
+            if ((self.state == MAIN or not cfg.main_deploy_mm)
+                    and self._land_max_mm - self._land_min_mm <= cfg.landed_alt_mm):
                 self.state = LANDED
                 self.events |= EV_LANDED
             self._land_start_ms = self.now_ms

@@ -40,10 +40,13 @@ __all__ = [
     "read_flight_csv",
     "write_flight_csv",
     "PRESSURE_MAX_PA",
+    "NO_MAIN",
 ]
 
 #: Pressure above this (Pa) is rejected as implausible (sea level is ~101325 Pa).
 PRESSURE_MAX_PA = 200000.0
+#: `# main_deploy_m: none`: the rocket has no main parachute (single deployment).
+NO_MAIN = "none"
 
 # Column names with a meaning to the reader.
 TIME = "time_s"
@@ -172,6 +175,13 @@ class FlightLog:
                 self.path, self.metadata_lines.get(key), f"metadata '{key}': {text!r} is out of range"
             )
         return value
+
+    def main_deploy_m(self) -> float | None:
+        """The deployment plan of the `main_deploy_m` metadata: the main's height in m, 0.0 for
+        `none` (no main parachute), or None when the file does not say."""
+        if self.metadata.get("main_deploy_m", "").strip().lower() == NO_MAIN:
+            return 0.0
+        return self.metadata_float("main_deploy_m")
 
 
 # --------------------------------------------------------------------------------------------------

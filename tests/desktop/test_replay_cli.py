@@ -96,3 +96,33 @@ def test_duplicated_time_stamps_replay_with_a_note(tmp_path, capsys):
     data = json.loads(capsys.readouterr().out)
     assert any(n.startswith("duplicated time stamps") for n in data["notes"])
     assert [e["event"] for e in data["events"]] == ["launch", "burnout", "apogee", "drogue", "main"]
+
+
+@pytest.mark.parametrize("plan, flag, main_m", [
+    ("400", None, 400),  # simulate's record of a rocket with its main at 400 m
+    ("none", None, None),  # a rocket with no main: no main event
+    ("none", "300", 300),  # the user overrides the file's plan
+    ("400", "0", None),  # ... either way
+])
+def test_the_files_deployment_plan_is_honoured(tmp_path, capsys, plan, flag, main_m):
+    text = FLIGHT.read_text().replace("# main_deploy_m: 250\n", "# main_deploy_m: %s\n" % plan)
+    path = tmp_path / "plan.csv"
+    path.write_text(text)
+    argv = ["replay", str(path), "--json"] + (["--main-altitude", flag] if flag else [])
+    assert main(argv) == 0
+    data = json.loads(capsys.readouterr().out)
+    mains = [e for e in data["events"] if e["event"] == "main"]
+    assert data["config"]["main_deploy_m"] == (main_m or 0)
+    if main_m is None:
+        assert not mains and "no main (single deployment)" in data["notes"]
+    else:
+        assert len(mains) == 1 and main_m - 10 <= mains[0]["altitude_m"] <= main_m
+
+
+def test_a_bad_deployment_plan_is_one_line(tmp_path):
+    path = tmp_path / "bad.csv"
+    path.write_text(FLIGHT.read_text().replace("# main_deploy_m: 250\n", "# main_deploy_m: 400 m\n"))
+    proc = subprocess.run([sys.executable, "-m", "desktop", "replay", str(path)], capture_output=True,
+                          text=True, cwd=Path(__file__).parents[2])
+    assert proc.returncode == 2 and "metadata 'main_deploy_m': '400 m' is not a number" in proc.stderr
+    assert "Traceback" not in proc.stderr

@@ -252,8 +252,9 @@ def test_simulate_command(tmp_path, capsys):
     rc = run_cli(["simulate", str(ROCKETS / "c6_model.toml"), "--out", str(out), "--seed", "4",
                   "--rate-hz", "50", "--pad-s", "5", "--plot", str(png)])
     assert rc == 0
-    assert "wrote" in capsys.readouterr().out
+    assert "no main" in capsys.readouterr().out
     log = read_flight_csv(out)
+    assert log.metadata["main_deploy_m"] == "none"  # the C6 has no [main]: the plan says so
     assert log.metadata["sensor_profile"] == "bmp390+mpu6050"  # from the TOML's [board]
     assert log.metadata["seed"] == "4"
     assert log.time_s[0] >= -5.0 and np.median(np.diff(log.time_s)) == pytest.approx(0.02, abs=1e-3)

@@ -330,3 +330,20 @@ def test_boost_time_counts_the_accelerometer_intervals():
     merged = launch_time_ms(20, 1)
     assert merged == 80  # the 5th reading of the boost: 4 intervals + the first one's
     assert abs(launch_time_ms(10, 2) - merged) <= 10
+
+
+def test_no_main_single_deployment_lands_under_the_drogue():
+    # main_deploy_m = 0: a rocket with one parachute; the main never fires, landing is detected
+    dts, alts, accs, truth, apogee = _flight(after_apogee_s=200, alt_noise_mm=800, acc_noise_mmps2=200)
+    ground = apogee + int(np.argmax(truth[apogee:] <= truth[0]))  # make_flight falls on through it
+    rest = np.random.default_rng(2).normal(0, 800, 2000).astype(np.int64)  # 20 s on the ground
+    dts = np.concatenate([dts[:ground], np.full(2000, dts[1])])
+    alts = np.concatenate([alts[:ground], truth[0] + rest])
+    accs = np.concatenate([accs[:ground], np.full(2000, G)])
+    fc, events, pyro = run(dts, alts, accs, np.full(len(dts), HAVE_BOTH), main_deploy_m=0)
+    bits = 0
+    for _, e in events:
+        bits |= e
+    assert bits & EV_DROGUE and not bits & EV_MAIN and not fc.pyro_main
+    assert fc.main_fired_ms < 0
+    assert bits & EV_LANDED and fc.state == LANDED
