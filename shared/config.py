@@ -148,8 +148,8 @@ def load_config(values=None):
             raise ConfigError("config: %s = %r is not one of %s" % (key, value, ", ".join(allowed)))
         merged[key] = value
     if 0 < merged["main_deploy_m"] < MAIN_DEPLOY_MIN_M:
-        raise ConfigError("config: main_deploy_m = %r is out of range: allowed 0 (no main) or %g to %g m AGL" % (
-            merged["main_deploy_m"], MAIN_DEPLOY_MIN_M, SCHEMA["main_deploy_m"][2]))
+        raise ConfigError("config: main_deploy_m = %r is out of range: allowed 0 (no main) or %g to %g m AGL"
+                          % (merged["main_deploy_m"], MAIN_DEPLOY_MIN_M, SCHEMA["main_deploy_m"][2]))
     if merged["backup_drogue_s"] and merged["backup_drogue_s"] < merged["apogee_lockout_s"]:
         raise ConfigError("config: backup_drogue_s = %r fires before apogee_lockout_s = %r ends" % (
             merged["backup_drogue_s"], merged["apogee_lockout_s"]))

@@ -110,7 +110,8 @@ def describe_duplicate_times(duplicates: Sequence[DuplicateTime], shown: int = 5
         parts.append(f"{len(same)} identical row(s) dropped (line {lines(same)})")
     merged = [d for d in duplicates if not d.identical]
     if merged:
-        text = f"{len(merged)} row(s) with different readings merged into the row before (line {lines(merged)})"
+        text = (f"{len(merged)} row(s) with different readings merged into the row before "
+                f"(line {lines(merged)})")
         differing = sorted({c for d in merged for c in d.differing})
         if differing:
             text += ", the later reading kept where both had one (" + ", ".join(differing) + ")"

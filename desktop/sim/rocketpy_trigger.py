@@ -430,8 +430,9 @@ def fly_closed_loop(rocket, profile: str | None = None, rate_hz: float | None = 
     """Fly a rocket TOML (path or ``RocketSpec``) in RocketPy with the flight computer deciding both
     parachutes. Sensors: ``profile`` (default the file's [board] sensors) at ``rate_hz`` (default the
     file's rate). ``config``: dict of settings (main_deploy_m defaults to the file's [main]
-    deploy_altitude_m, or 0, no main, when it has none). ``time_overshoot=False`` (RocketPy stops at every sample: the parachute
-    triggers at the sample of the decision) unless told; see the module docstring."""
+    deploy_altitude_m, or 0, no main, when it has none). ``time_overshoot=False`` (RocketPy stops
+    at every sample: the parachute triggers at the sample of the decision) unless told; see the
+    module docstring."""
     from desktop.io.rocket_file import load_rocket
     from desktop.sim.trajectory import build_rocketpy
 

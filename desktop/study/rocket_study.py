@@ -168,10 +168,9 @@ def settings_for(rocket_path, seed: int, profile: str | None = None, pad_s: floa
                  main_deploy_m: float | None = None, config_values: dict | None = None) -> StudySettings:
     """Study settings: the rocket file's [board] defaults and deployment plan unless given;
     ``config_values``: a flight configuration (docs/CONFIG.md), validated here."""
-    from shared.config import load_config
-
     from desktop.io.rocket_file import load_rocket
     from desktop.sim.sensor_models import BoardConfig, parse_profile
+    from shared.config import load_config
 
     spec = load_rocket(rocket_path)
     board = spec.board

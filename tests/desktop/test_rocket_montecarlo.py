@@ -223,7 +223,8 @@ def test_deployment_plan_the_rocket_the_configuration_and_the_flag(tmp_path):
     assert rm.settings_for(C6, 1).main_deploy_m == 0.0  # no [main]: no main
     s = rm.settings_for(m1670, 1, config_values={"main_deploy_m": 300, "apogee_delay_s": 1})
     assert s.main_deploy_m == 300.0 and dict(s.config) == {"apogee_delay_s": 1}
-    assert rm.settings_for(m1670, 1, main_deploy_m=350, config_values={"main_deploy_m": 300}).main_deploy_m == 350
+    flag_wins = rm.settings_for(m1670, 1, main_deploy_m=350, config_values={"main_deploy_m": 300})
+    assert flag_wins.main_deploy_m == 350
     # no main: the simulated rocket flies without it, the record says "none", the computer fires none
     spec = load_rocket(m1670)
     draw = rm.draw_flight(spec, 1, 0)
