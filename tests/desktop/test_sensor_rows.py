@@ -73,6 +73,7 @@ LAYOUTS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("layout", sorted(LAYOUTS))
 def test_layouts_of_the_real_flights_stay_right(layout):
     errors = []
