@@ -347,3 +347,25 @@ def test_no_main_single_deployment_lands_under_the_drogue():
     assert bits & EV_DROGUE and not bits & EV_MAIN and not fc.pyro_main
     assert fc.main_fired_ms < 0
     assert bits & EV_LANDED and fc.state == LANDED
+
+
+def test_accelerometer_integrals_count_its_own_intervals():
+    # the accelerometer's account of the boost (proof of flight) from readings on alternate 10 ms
+    # samples equals the one from readings on every 20 ms sample: each reading stands for its own
+    # 20 ms interval, not for the 10 ms since the barometer's sample before it
+    boost_mmps2 = 5 * G  # 0.4 s of 5 g kinematic: 19.6 m/s, 3.9 m
+    def integrals(step_ms, every):
+        dts, alts, accs, _ = pad(3, rate=1000 // step_ms, seed=1)
+        n_boost = 400 // step_ms
+        dts = np.concatenate([dts, np.full(n_boost, step_ms * 1000)])
+        alts = np.concatenate([alts, np.full(n_boost, alts[-1])])
+        accs = np.concatenate([accs, np.full(n_boost, G + boost_mmps2)])
+        have = np.full(len(dts), HAVE_BOTH)
+        if every == 2:
+            have = np.where(np.arange(len(dts)) % 2 == 0, HAVE_BARO, HAVE_ACCEL)
+        fc, _, _ = run(dts, alts, accs, have)
+        return fc.acc_dv_mmps, fc.acc_h_mm
+    dv, h = integrals(20, 1)
+    assert abs(dv - boost_mmps2 * 0.4) <= boost_mmps2 * 0.02  # within one reading's 20 ms
+    dv2, h2 = integrals(10, 2)
+    assert abs(dv2 - dv) <= boost_mmps2 * 0.02 and abs(h2 - h) <= 500
