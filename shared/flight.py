@@ -522,9 +522,10 @@ class FlightComputer:
         elif state == DROGUE:
             # main: proven, after the guard time; at or below the main altitude descending when the
             # flight rose main_margin_m above it; without a barometer main_delay_s after the drogue
-            # (main_deploy_m 0: no main, a single deployment)
             since_ms = self.now_ms - self.drogue_fired_ms
-            if not cfg.main_deploy_mm or not self.flight_proven or since_ms < cfg.main_guard_ms:
+            if not cfg.main_deploy_mm:
+                main = False  # main_deploy_m 0: no main, a single deployment
+            elif not self.flight_proven or since_ms < cfg.main_guard_ms:
                 main = False
             elif not self.health.baro_ok:
                 main = since_ms >= cfg.main_delay_ms

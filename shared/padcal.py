@@ -115,27 +115,20 @@ class PadCalibration:
         step (or on the first barometric reading when the first samples had none)."""
         self._history(now_ms)
         if have & HAVE_BARO:
+            if self._ref_pending:  # the first barometric reading: the first samples had none
+                self._ref_pending = False
+                self._hist0 = self._hist1 = self._hist2 = alt_mm
+                self._rebase(alt_mm, kf)
+                return
             jump = alt_mm - (kf.alt_q4 >> 4)
-            if self._ref_pending or jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
-                if self._ref_pending:  # the first barometric reading: the first samples had none
-                    self._ref_pending = False
-                    self._hist0 = self._hist1 = self._hist2 = alt_mm
-                else:
-                    self.errors |= ERR_PAD_BARO_STEP
-                    # one step is weather or the av-bay; three within a second is a broken sensor
-                    self._jumps = self._jumps + 1 if now_ms - self._last_jump_ms < 1000 else 1
-                    self._last_jump_ms = now_ms
-                    if self._jumps >= 3:
-                        self.errors |= ERR_BARO_ERRATIC
-                kf.reset(alt_mm, 0, 0)
-                self._ref_mm = alt_mm
-                self._blk_alt = self._blk_alt_n = self._blk_acc = self._blk_acc_n = 0
-                self._prev_alt_n = self._prev_acc_n = 0
-                self._all_alt = self._all_alt_n = self._all_acc = self._all_acc_n = 0
-                self._pend_alt = self._pend_alt_n = 0
-                self._baro_ms = -1
-                if not self.ground_fixed:
-                    self.ground_alt_mm = alt_mm
+            if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
+                self.errors |= ERR_PAD_BARO_STEP
+                # one step is weather or the av-bay; three within a second is a broken sensor
+                self._jumps = self._jumps + 1 if now_ms - self._last_jump_ms < 1000 else 1
+                self._last_jump_ms = now_ms
+                if self._jumps >= 3:
+                    self.errors |= ERR_BARO_ERRATIC
+                self._rebase(alt_mm, kf)
                 return
             if self.errors & ERR_BARO_ERRATIC and now_ms - self._last_jump_ms > 2000:
                 self.errors &= ~ERR_BARO_ERRATIC
@@ -154,21 +147,16 @@ class PadCalibration:
         if have & HAVE_ACCEL:
             limit = self.launch_accel_mmps2
             acc_kin = accel_mmps2 - self.one_g_mmps2
-            # climbing under a push (the barometer's last reading, on this sample or just before):
-            # a slow boost
-            quiet = -limit < acc_kin < limit and not (
-                acc_kin > _PUSH_MMPS2 and self._baro_ms >= 0 and now_ms - self._baro_ms < _ACCEL_HOLD_MS
-                and kf.vel_q4 >> 4 > _QUIET_SPEED_MMPS
-                and self._baro_alt_mm - self.ground_alt_mm > _QUIET_CLIMB_MM)
-            # barometric readings since the previous accelerometer reading were quiet if the
-            # accelerometer readings on both sides of them are
-            if quiet and self._accel_quiet and self._pend_alt_n:
-                self._add_alt(self._pend_alt, self._pend_alt_n, first)
-            self._pend_alt = self._pend_alt_n = 0
-            self._accel_quiet = quiet
-            self._accel_ms = now_ms
-            if not quiet:
+            if not -limit < acc_kin < limit:
+                self._accel_verdict(now_ms, False, first)
                 return
+            # the barometer's reading on this sample or just before it
+            if (acc_kin > _PUSH_MMPS2 and self._baro_ms >= 0 and now_ms - self._baro_ms < _ACCEL_HOLD_MS
+                    and kf.vel_q4 >> 4 > _QUIET_SPEED_MMPS
+                    and self._baro_alt_mm - self.ground_alt_mm > _QUIET_CLIMB_MM):
+                self._accel_verdict(now_ms, False, first)
+                return  # climbing under a push: a slow boost
+            self._accel_verdict(now_ms, True, first)
             if have & HAVE_BARO:
                 self._add_alt(d_alt, 1, first)
             self._blk_acc += accel_mmps2
@@ -197,6 +185,27 @@ class PadCalibration:
             self._blk_start_ms = now_ms
         elif first:
             self._apply(self._all_alt, self._all_alt_n, self._all_acc, self._all_acc_n)
+
+    def _rebase(self, alt_mm, kf):
+        """Restart the filter and the averages at the barometric altitude ``alt_mm``."""
+        kf.reset(alt_mm, 0, 0)
+        self._ref_mm = alt_mm
+        self._blk_alt = self._blk_alt_n = self._blk_acc = self._blk_acc_n = 0
+        self._prev_alt_n = self._prev_acc_n = 0
+        self._all_alt = self._all_alt_n = self._all_acc = self._all_acc_n = 0
+        self._pend_alt = self._pend_alt_n = 0
+        self._baro_ms = -1
+        if not self.ground_fixed:
+            self.ground_alt_mm = alt_mm
+
+    def _accel_verdict(self, now_ms, quiet, first):
+        """An accelerometer reading's verdict: the barometric readings since the previous one were
+        quiet if the accelerometer readings on both sides of them are."""
+        if quiet and self._accel_quiet and self._pend_alt_n:
+            self._add_alt(self._pend_alt, self._pend_alt_n, first)
+        self._pend_alt = self._pend_alt_n = 0
+        self._accel_quiet = quiet
+        self._accel_ms = now_ms
 
     def _add_alt(self, alt_sum, n, first):
         self._blk_alt += alt_sum

@@ -5,7 +5,7 @@ AltOS's published algorithm replayed on the same record (desktop/study/altos.py)
     python tools/bench_real_flights.py
     python tools/bench_real_flights.py --layout alternating   # the sensors on separate rows
 
-``--layout`` rewrites each flight's rows first (tests/support/row_layouts.py): ``alternating``,
+``--layout`` rewrites each AltOS flight's rows first (tests/support/row_layouts.py): ``alternating``,
 ``merged_alternating``, ``mixed_rate``, ``bursty`` or ``split_rows``.
 """
 
@@ -32,7 +32,8 @@ LAYOUTS = ("alternating", "merged_alternating", "mixed_rate", "bursty", "split_r
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--layout", choices=LAYOUTS, help="rewrite the rows of each flight first")
+    ap.add_argument("--layout", choices=LAYOUTS,
+                    help="rewrite the rows of each AltOS flight first (the FIRM flights as logged)")
     args = ap.parse_args(argv)
     from tests.support import row_layouts
 
