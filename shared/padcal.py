@@ -117,8 +117,8 @@ class PadCalibration:
         if have & HAVE_BARO:
             if self._ref_pending:  # the first barometric reading: the first samples had none
                 self._ref_pending = False
-                self._hist0 = self._hist1 = self._hist2 = alt_mm
                 self._rebase(alt_mm, kf)
+                self._hist0 = self._hist1 = self._hist2 = self.ground_alt_mm
                 return
             jump = alt_mm - (kf.alt_q4 >> 4)
             if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
