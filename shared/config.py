@@ -10,10 +10,14 @@ import math
 
 from shared.physics import G_MMPS2
 
+# Lowest main deployment height: below it a main cannot open before the ground (0 = no main).
+MAIN_DEPLOY_MIN_M = 10
+
 # key: (default, minimum, maximum, unit, meaning). Numbers accept int or float; 0 disables the
 # keys documented as "0 = off". Defaults suit a typical high-power dual-deploy flight.
 SCHEMA = {
-    "main_deploy_m": (250, 10, 5000, "m AGL", "main fires when the descending rocket is at or below this"),
+    "main_deploy_m": (250, 0, 5000, "m AGL",
+        "main fires when the descending rocket is at or below this (0 = no main: single deployment)"),
     "main_guard_s": (2.0, 0, 60, "s",
         "main never fires sooner than this after the drogue fired; after a maximum altitude below "
         "main_deploy_m + main_margin_m the main fires this long after the drogue"),
@@ -176,6 +180,9 @@ def load_config(values=None):
         if value not in allowed:
             raise ConfigError("config: %s = %r is not one of %s" % (key, value, ", ".join(allowed)))
         merged[key] = value
+    if 0 < merged["main_deploy_m"] < MAIN_DEPLOY_MIN_M:
+        raise ConfigError("config: main_deploy_m = %r is out of range: allowed 0 (no main) or %g to %g m AGL"
+                          % (merged["main_deploy_m"], MAIN_DEPLOY_MIN_M, SCHEMA["main_deploy_m"][2]))
     if merged["backup_drogue_s"] and merged["backup_drogue_s"] < merged["apogee_lockout_s"]:
         raise ConfigError("config: backup_drogue_s = %r fires before apogee_lockout_s = %r ends" % (
             merged["backup_drogue_s"], merged["apogee_lockout_s"]))

@@ -1,9 +1,19 @@
-"""Per-sample driver of the Kalman filter: picks the gains for each sample's period, predicts
-across dropouts, and corrects with whichever readings the sample carries.
+"""Per-sample driver of the Kalman filter: predicts over each sample's period (and across
+dropouts), and corrects with whichever readings the sample carries.
 
 Portable and allocation-free per sample. Time is integer microseconds (``dt_us``: time since
 the previous sample). Readings: barometric altitude in mm (any datum) and kinematic acceleration
 in mm/s^2 (specific force minus the pad's 1 g; 0 at rest, about -9807 in drag-free coast).
+
+Each sensor keeps its own schedule: a sample may carry one reading, the other, or both (a
+barometer slower than the accelerometer, or a logger that writes each sensor on its own row).
+Each reading is used at its own time: the filter predicts across the samples without it, and its
+gains are those of its own reading interval (a barometer read every 20 ms gets the 50 Hz gains
+even when the samples are 10 ms apart). A reading alone on its sample, while the other sensor is
+on schedule, is corrected through its column of the two-sensor gains, so that readings on separate
+rows add up to the correction of a row with both. Once the other sensor has given no used
+reading for SCHEDULE_US (a dead part, a run of rejected readings), or the state machine stops
+using it (the accelerometer under a parachute), the single-sensor gains apply.
 """
 
 from array import array
@@ -40,6 +50,14 @@ ACCEL_RESYNC_US = const(100000)
 # again at the first small innovation would cut the re-convergence at every overshoot and turn a
 # large error into a limit cycle (docs/DESIGN.md, "A filter that always re-converges").
 GATE_REARM_US = const(3000000)
+# A sensor whose last used reading is at most this old still informs the filter (its information
+# fades over about the settling time of the filter, far longer): a reading of the other sensor
+# alone takes its column of the two-sensor gains. 1.5 periods of the slowest table rate (10 Hz),
+# so that a 10 Hz barometer beside a fast accelerometer stays on schedule despite jitter.
+SCHEDULE_US = const(150000)
+# Times since a sensor's readings saturate here (268 s), far beyond any reading interval, so that
+# they stay small integers however long a sensor stays silent.
+_SINCE_LIMIT_US = const(0xFFFFFFF)
 
 
 def _clamp(x):
@@ -64,8 +82,21 @@ class Detector:
         self.rule = rule
         self.kf = Kalman()
         self.row = table[0]
-        self.dt_us = -1  # period the cached row and predict_steps belong to
-        self.predict_steps = 0  # predictions per step: 1 normally, more across a gap
+        self.fine_row = table[0]  # the table's fastest rate: samples sooner than a period step in it
+        for row in table:
+            if row[0] > self.fine_row[0]:
+                self.fine_row = row
+        self.dt_us = -1  # period the cached row belongs to
+        self.regular = False  # the cached period is one period of a table rate
+        self.predict_steps = 0  # predictions in the last step: 1 normally, more across a gap
+        self.carry_us = 0  # time not yet predicted (irregular periods are predicted in whole steps)
+        # per sensor (barometer, accelerometer): time since its last reading, since its last
+        # reading that was used (within the gates), and between its last two readings (0: none yet)
+        self.seen_us = array("i", (0, 0))
+        self.used_us = array("i", (0, 0))
+        self.interval_us = array("i", (0, 0))
+        self.sensor_row = [table[0], table[0]]  # gain row for each sensor's interval
+        self.sensor_row_us = array("i", (-1, -1))  # the interval each sensor_row belongs to
         # innovation gates (0 = off), set by the state machine for the flight phase
         self.gate_alt_mm = 0
         self.gate_acc_mmps2 = 0
@@ -75,6 +106,10 @@ class Detector:
         self.acc_max_q4 = RATE_LIMIT_Q4  # ceiling of the acceleration state (coast: -0.5 g)
         self.outliers = 0  # count of rejected readings
         self.model = MODEL_PLAIN
+        # set by the state machine while it follows the barometer alone (descent, a diverged or
+        # resumed filter): the accelerometer is then never on schedule, and its interval restarts
+        # with its first reading after (the filter does not count that time as a slow sensor's)
+        self.accel_off = False
 
     def start(self, alt_mm, acc_mmps2=0):
         """Initialise the state at rest at ``alt_mm`` (the seed starts from [alt(1); 0; accel(1)])."""
@@ -88,63 +123,103 @@ class Detector:
         """
         if dt_us != self.dt_us:  # re-select only when the period changes: this loops over the table
             self._set_period(dt_us)
-        row = self.row
         kf = self.kf
-        for _ in range(self.predict_steps):
-            kf.predict(row)
+        self._predict(dt_us)
+        self._elapse(0, dt_us, have & HAVE_BARO)
+        self._elapse(1, dt_us, have & HAVE_ACCEL)
+        if self.accel_off:
+            self.seen_us[1] = 0
         if have & HAVE_BARO and self.gate_alt_mm and self._outlier(
-                _clamp(alt_mm) - (kf.alt_q4 >> 4), self.gate_alt_mm, 0, dt_us, BARO_RESYNC_US):
+                _clamp(alt_mm) - (kf.alt_q4 >> 4), self.gate_alt_mm, 0, BARO_RESYNC_US):
             have &= HAVE_ACCEL
         if have & HAVE_ACCEL and self.gate_acc_mmps2 and self._outlier(
-                _clamp(acc_mmps2) - (kf.acc_q4 >> 4), self.gate_acc_mmps2, 1, dt_us, ACCEL_RESYNC_US):
+                _clamp(acc_mmps2) - (kf.acc_q4 >> 4), self.gate_acc_mmps2, 1, ACCEL_RESYNC_US):
             have &= HAVE_BARO
-        if self.model == MODEL_GRAVITY:
+        model = self.model
+        if model == MODEL_GRAVITY:
             if have & HAVE_BARO:
-                kf.correct_gravity(row, alt_mm)
+                kf.correct_gravity(self._row_for(0, dt_us), alt_mm)
         elif have == HAVE_BOTH:
-            if self.model == MODEL_BIAS:
-                kf.correct_coast(row, alt_mm, acc_mmps2)
+            if model == MODEL_BIAS:
+                kf.correct_coast(self._row_for(0, dt_us), self._row_for(1, dt_us), alt_mm, acc_mmps2)
             else:
-                kf.correct(row, alt_mm, acc_mmps2)
+                kf.correct(self._row_for(0, dt_us), self._row_for(1, dt_us), alt_mm, acc_mmps2)
         elif have == HAVE_BARO:
-            kf.correct_baro(row, alt_mm)
+            if self._on_schedule(1):
+                kf.correct_baro_part(self._row_for(0, dt_us), alt_mm, model == MODEL_BIAS)
+            else:
+                kf.correct_baro(self._row_for(0, dt_us), alt_mm)
         elif have == HAVE_ACCEL:
-            kf.correct_accel(row, acc_mmps2)
+            if self._on_schedule(0):
+                kf.correct_accel_part(self._row_for(1, dt_us), acc_mmps2, model == MODEL_BIAS)
+            else:
+                kf.correct_accel(self._row_for(1, dt_us), acc_mmps2)
+        if have & HAVE_BARO:
+            self.used_us[0] = 0
+        if have & HAVE_ACCEL:
+            self.used_us[1] = 0
         if kf.acc_q4 > self.acc_max_q4:
             kf.acc_q4 = self.acc_max_q4
-        return self.rule.update(kf, row[0], enabled)
+        return self.rule.update(kf, self.row[0], enabled)
 
-    def _outlier(self, e, gate, sensor, dt_us, resync_us):
-        """True if the innovation ``e`` is beyond ``gate`` and this sensor's run of outliers is
-        still shorter than ``resync_us`` (then the reading is not used). Once re-synchronised the
-        gate stays open until the innovation has stayed inside it for GATE_REARM_US."""
-        inside = -gate <= e <= gate
-        if self.inside_us[sensor] >= 0:
-            if not inside:
-                self.inside_us[sensor] = 0
-                return False
-            self.inside_us[sensor] += dt_us
-            if self.inside_us[sensor] >= GATE_REARM_US:
-                self.inside_us[sensor] = -1
+    def _predict(self, dt_us):
+        """Advance the state by ``dt_us``: one period of the selected rate when the period is
+        regular; otherwise whole periods (of the rate in use across a gap, of the fastest rate for
+        a sample sooner than a period), the remainder carried to the next sample so that the
+        filter's time keeps up with the samples' (a burst of rows 1 ms apart predicts 1 ms each)."""
+        kf = self.kf
+        row = self.row
+        if self.regular:
+            self.carry_us = 0
+            self.predict_steps = 1
+            kf.predict(row)
+            return
+        period_us = 1000000 // row[0]
+        if dt_us < period_us - (period_us >> 3):
+            row = self.fine_row
+            period_us = 1000000 // row[0]
+        t_us = self.carry_us + dt_us
+        steps = (t_us + (period_us >> 1)) // period_us
+        if steps > MAX_PREDICT_STEPS:
+            steps = MAX_PREDICT_STEPS
+            t_us = steps * period_us
+        self.carry_us = t_us - steps * period_us
+        self.predict_steps = steps
+        for _ in range(steps):
+            kf.predict(row)
+
+    def _elapse(self, sensor, dt_us, fresh):
+        """Advance the sensor's clocks by ``dt_us``; on a fresh reading its interval is measured."""
+        t = self.seen_us[sensor] + dt_us
+        if t > _SINCE_LIMIT_US:
+            t = _SINCE_LIMIT_US
+        if fresh:
+            self.interval_us[sensor] = t
+            t = 0
+        self.seen_us[sensor] = t
+        t = self.used_us[sensor] + dt_us
+        self.used_us[sensor] = t if t < _SINCE_LIMIT_US else _SINCE_LIMIT_US
+
+    def _on_schedule(self, sensor):
+        """True while the sensor informs the filter: it has a used reading within SCHEDULE_US."""
+        if sensor == 1 and self.accel_off:
             return False
-        if inside:
-            self.outlier_us[sensor] = 0
-            return False
-        self.outlier_us[sensor] += dt_us
-        if self.outlier_us[sensor] < resync_us:
-            self.outliers += 1
-            return True
-        self.outlier_us[sensor] = 0
-        self.inside_us[sensor] = 0  # re-synchronise: open the gate
-        return False
+        return self.interval_us[sensor] > 0 and self.used_us[sensor] < SCHEDULE_US
 
-    def _set_period(self, dt_us):
-        """Select the gain row and the number of its periods that cover ``dt_us``.
+    def _row_for(self, sensor, dt_us):
+        """The gain row for the sensor's reading interval: the sample's own row when the reading
+        came one regular period after the last one (every sample carries it), else the row of the
+        nearest table period (the slowest rate for an interval beyond it)."""
+        interval = self.interval_us[sensor]
+        if interval == dt_us and self.regular:
+            return self.row
+        if interval != self.sensor_row_us[sensor]:
+            self.sensor_row[sensor] = self._nearest(interval)
+            self.sensor_row_us[sensor] = interval
+        return self.sensor_row[sensor]
 
-        A period within 1/8 of a table rate's period is one step of that rate (jitter, or a logger
-        changing rate: 10 ms, then 100 ms). Anything else is a gap: whole periods of the rate in
-        use before it (a 60 ms gap at 100 Hz is six 100 Hz steps), at most MAX_PREDICT_STEPS.
-        """
+    def _nearest(self, dt_us):
+        """The table row whose period is nearest to ``dt_us`` (the slower on a tie)."""
         best = self.table[0]
         best_err = 0x3FFFFFFF
         for row in self.table:
@@ -154,15 +229,47 @@ class Detector:
             if err < best_err:
                 best = row
                 best_err = err
-        if best_err * 8 <= 1000000 // best[0]:
+        return best
+
+    def _outlier(self, e, gate, sensor, resync_us):
+        """True if the innovation ``e`` is beyond ``gate`` and this sensor's run of outliers is
+        still shorter than ``resync_us`` (then the reading is not used). The run is timed by the
+        sensor's own reading intervals. Once re-synchronised the gate stays open until the
+        innovation has stayed inside it for GATE_REARM_US."""
+        inside = -gate <= e <= gate
+        interval_us = self.interval_us[sensor]
+        if self.inside_us[sensor] >= 0:
+            if not inside:
+                self.inside_us[sensor] = 0
+                return False
+            self.inside_us[sensor] += interval_us
+            if self.inside_us[sensor] >= GATE_REARM_US:
+                self.inside_us[sensor] = -1
+            return False
+        if inside:
+            self.outlier_us[sensor] = 0
+            return False
+        self.outlier_us[sensor] += interval_us
+        if self.outlier_us[sensor] < resync_us:
+            self.outliers += 1
+            return True
+        self.outlier_us[sensor] = 0
+        self.inside_us[sensor] = 0  # re-synchronise: open the gate
+        return False
+
+    def _set_period(self, dt_us):
+        """Select the sample's rate for ``dt_us``.
+
+        A period within 1/8 of a table rate's period is one step of that rate (jitter, or a logger
+        changing rate: 10 ms, then 100 ms). Anything else is irregular (see ``_predict``): a gap is
+        whole periods of the rate in use before it (a 60 ms gap at 100 Hz is six 100 Hz steps), at
+        most MAX_PREDICT_STEPS.
+        """
+        best = self._nearest(dt_us)
+        err = 1000000 // best[0] - dt_us
+        if err < 0:
+            err = -err
+        self.regular = err * 8 <= 1000000 // best[0]
+        if self.regular:
             self.row = best
-            steps = 1
-        else:
-            period_us = 1000000 // self.row[0]
-            steps = (dt_us + (period_us >> 1)) // period_us
-            if steps < 1:
-                steps = 1
-            elif steps > MAX_PREDICT_STEPS:
-                steps = MAX_PREDICT_STEPS
         self.dt_us = dt_us
-        self.predict_steps = steps

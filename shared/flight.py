@@ -8,7 +8,12 @@ flight; call ``step()`` once per sample with integer readings:
 - ``accel_mmps2``: specific force along the rocket's axis, mm/s^2, positive towards the nose
   (+9807 standing on the pad, about 0 in drag-free coast);
 - ``have``: which readings are fresh (``HAVE_BARO | HAVE_ACCEL``; a missing or stale reading is
-  never used: the filter predicts across it).
+  never used: the filter predicts across it). The sensors need not share samples: a barometer
+  slower than the accelerometer, or each sensor on its own sample, is the same flight. Every
+  decision uses each sensor's readings at their own times (shared/detector.py): the boost timer,
+  the accelerometer's integrals and its averaged reading count the accelerometer's own intervals,
+  the pad calibration averages each sensor's readings apart (shared/padcal.py), and a sample
+  without a reading of one sensor holds that sensor's last verdict.
 
 After ``step()``: ``state``, ``events`` (bit mask of what happened at this sample),
 ``pyro_drogue`` / ``pyro_main`` (output levels to drive now), ``agl_mm``, ``vel_mmps``.
@@ -37,7 +42,9 @@ Transitions (``_transition``), each branch opening with its rule:
 | | | the main altitude (none seen: `main_delay_s` after the drogue), | `main_backup_s` |
 | | | or main_backup_s after the drogue; no barometer on the board: | |
 | | | `main_delay_s` after the drogue | |
+| | | main_deploy_m 0: never (no main, a single deployment) | |
 | main | landed | altitude within a band over a window | `landed_alt_m` |
+| drogue | landed | the same, when there is no main (main_deploy_m 0) | `landed_alt_m` |
 
 Apogee itself is declared by the filter's rule only while ``_apogee_enabled()``: coast, proven,
 above the proof climb, after the lockout, an averaged deceleration between ``coast_decel_mps2``
@@ -154,6 +161,13 @@ _INT_LIMIT = const(0xFFFFF)
 # height agree within 10 m + 1/4 of the climb (tilt up to 40 degrees, barometer lag, calibration).
 _AGREE_MM = const(10000)
 
+# An accelerometer reading stands for the time since the previous one (its own interval). For the
+# boost timer at most this long: the period of the slowest rate the filter knows (10 Hz); after a
+# longer silence a boosting reading counts as one such period. Its integrals and averages take up
+# to _ACCEL_AGE_LIMIT_US (their own limit of 1 s).
+_ACCEL_HOLD_US = const(100000)
+_ACCEL_AGE_LIMIT_US = const(1000000)
+
 # Error flags in ``errors`` (ERR_ORIENTATION, ERR_PAD_BARO_STEP and ERR_BARO_ERRATIC come from
 # shared/padcal.py).
 ERR_ACCEL_CLIPPED = const(2)  # at least one reading at the accelerometer's full scale
@@ -196,7 +210,7 @@ class FlightComputer:
         self._steady_ms = -1  # reading that moved
         self._good_agl_mm = 0
         self._good_ms = -1
-        self._arb_ms = 0  # now_ms at the previous _arbitrate
+        self._arb_ms = 0  # now_ms the track was last brought up to date (see _arbitrate)
         self._baro_coast_ms = 0  # how long the barometer has been in use in coast, without a break
         self._filter_anchored = False  # the barometer was in use long enough before it was lost
         self.pad = PadCalibration(config, ground_alt_mm)
@@ -211,6 +225,8 @@ class FlightComputer:
         # flight
         self.boost_ms = 0  # how long the boost acceleration has been sustained
         self.boost_max_ms = 0  # the longest such stretch
+        self._accel_age_us = 0  # time since the last accelerometer reading (capped)
+        self._accel_interval_us = _ACCEL_HOLD_US  # between its last two readings (capped)
         self.launched = False
         self.flight_proven = False
         self.climb_ms = 0  # time above proof_climb_m, less the time below since (barometer)
@@ -288,6 +304,20 @@ class FlightComputer:
         measured_acc = have & HAVE_ACCEL  # a usable reading, before the phase's own choice
         if clipped:
             self.errors |= ERR_ACCEL_CLIPPED
+        # the accelerometer's own interval: the time since its previous reading (0: none now)
+        accel_since_us = self._accel_age_us + dt_us
+        if accel_since_us > _ACCEL_AGE_LIMIT_US:
+            accel_since_us = _ACCEL_AGE_LIMIT_US
+        if measured_acc or clipped:
+            self._accel_age_us = 0
+            # the boost timer's: at most _ACCEL_HOLD_US; its period the shorter of the last two
+            accel_interval_us = accel_since_us if accel_since_us < _ACCEL_HOLD_US else _ACCEL_HOLD_US
+            accel_period_us = self._accel_interval_us if self._accel_interval_us < accel_interval_us \
+                else accel_interval_us
+            self._accel_interval_us = accel_interval_us
+        else:
+            self._accel_age_us = accel_since_us
+            accel_since_us = accel_interval_us = accel_period_us = 0
         if state == PAD:
             pad = self.pad
             pad.update(self.now_ms, alt_mm, accel_mmps2, have, self.kf)
@@ -324,10 +354,12 @@ class FlightComputer:
         self.det.acc_max_q4 = COAST_ACC_MAX_Q4 if coasting else RATE_LIMIT_Q4
         if resuming:
             self.det.model = MODEL_PLAIN  # after a reset the saved velocity may be old: re-learn
-        if state >= DROGUE or resuming:
+        baro_alone = state >= DROGUE or resuming
+        if baro_alone:
             # under a parachute the orientation is unknown; a resumed filter follows the
             # barometer alone (see restore_state)
             have &= HAVE_BARO
+        self.det.accel_off = baro_alone
         if dt_us:
             enabled = self._apogee_enabled()
             accel_only = self.mode == MODE_ACCEL
@@ -353,11 +385,11 @@ class FlightComputer:
                 self._good_agl_mm = self.agl_mm
                 self._good_ms = self.now_ms
         self._update_averages(dt_us)
-        self._update_boost(dt_us, acc_kin, have, clipped)
+        self._update_boost(accel_interval_us, accel_period_us, acc_kin, have, clipped)
         if measured_acc or clipped:
-            self._integrate_accel(dt_us // 1000, acc_kin, clipped)
+            self._integrate_accel(accel_since_us // 1000, acc_kin, clipped)
         if measured_acc:
-            self.acc_meas_avg = _ema(self.acc_meas_avg, acc_kin, dt_us // 1000, _DECEL_TAU_MS)
+            self.acc_meas_avg = _ema(self.acc_meas_avg, acc_kin, accel_since_us // 1000, _DECEL_TAU_MS)
             if state != PAD and self.acc_meas_avg <= -cfg.coast_decel_mmps2:
                 self.coast_measured = True
         self._transition(apogee)
@@ -414,11 +446,14 @@ class FlightComputer:
         self.acc_avg_q4 = _ema(self.acc_avg_q4, self.kf.acc_q4, dt_us // 1000, _DECEL_TAU_MS)
         self.innov_avg_q4 = _ema(self.innov_avg_q4, self.kf.innov_alt_q4, dt_us // 1000, _INNOV_TAU_MS)
 
-    def _update_boost(self, dt_us, acc_kin, have, clipped):
-        if self.state > BOOST:
+    def _update_boost(self, accel_interval_us, accel_period_us, acc_kin, have, clipped):
+        """Boost time: a boosting accelerometer reading after a boosting one adds the time between
+        them, the first of a run one accelerometer period (a long silence before it is not known
+        to be boost); a sample without an accelerometer reading leaves it as it is."""
+        if self.state > BOOST or not (have & HAVE_ACCEL or clipped):
             return
-        if (have & HAVE_ACCEL and acc_kin > self.cfg.launch_accel_mmps2) or clipped:
-            self.boost_ms += dt_us // 1000
+        if acc_kin > self.cfg.launch_accel_mmps2 or clipped:
+            self.boost_ms += (accel_interval_us if self.boost_ms else accel_period_us) // 1000
             if self.boost_ms > self.boost_max_ms:
                 self.boost_max_ms = self.boost_ms
         else:
@@ -543,7 +578,9 @@ class FlightComputer:
             # main: proven, after the guard time; at or below the main altitude descending when the
             # flight rose main_margin_m above it; without a usable barometer _main_due_without_baro
             since_ms = self.now_ms - self.drogue_fired_ms
-            if not self.flight_proven or since_ms < cfg.main_guard_ms:
+            if not cfg.main_deploy_mm:
+                main = False  # main_deploy_m 0: no main, a single deployment
+            elif not self.flight_proven or since_ms < cfg.main_guard_ms:
                 main = False
             elif not self.mode & MODE_BARO:
                 main = self._main_due_without_baro(since_ms)
@@ -637,7 +674,8 @@ class FlightComputer:
         self.state = MAIN
 
     def _landing_rule(self):
-        """Landed: in MAIN, the altitude stays within ``landed_alt_m`` over a window."""
+        """Landed: in MAIN (or in DROGUE with no main), the altitude stays within ``landed_alt_m``
+        over a window."""
         cfg = self.cfg
         agl = self.agl_mm
         if agl < self._land_min_mm:
@@ -645,7 +683,9 @@ class FlightComputer:
         if agl > self._land_max_mm:
             self._land_max_mm = agl
         if self.now_ms - self._land_start_ms >= cfg.landed_window_ms:
-            if (self.state == MAIN and self._land_max_mm - self._land_min_mm <= cfg.landed_alt_mm):
+            # landed under the main, or under the only parachute when there is no main
+            if ((self.state == MAIN or not cfg.main_deploy_mm)
+                    and self._land_max_mm - self._land_min_mm <= cfg.landed_alt_mm):
                 self.state = LANDED
                 self.events |= EV_LANDED
             self._land_start_ms = self.now_ms
@@ -666,8 +706,10 @@ class FlightComputer:
         cfg = self.cfg
         arb = self.arb
         flags = self.health.flags
+        # the track's time: since the accelerometer's previous reading, or since the part of a
+        # silence beyond _ACCEL_HOLD_US was accounted as missing (each reading stands for its own
+        # interval, so sensors on separate rows integrate as a row with both)
         dt_ms = self.now_ms - self._arb_ms
-        self._arb_ms = self.now_ms
         state = self.state
         coasting = state == FAST or state == COAST
         if (state == PAD and (arb.margin_mmps or not arb.valid) and cfg.has_accel
@@ -675,13 +717,17 @@ class FlightComputer:
             arb.start(0)  # at rest: the track starts again at the first boost reading
         if flags & HEALTH_ACCEL_BAD and arb.valid:
             arb.stop()  # its integral no longer bounds anything, for the rest of the flight
-        if arb.valid and state < DROGUE:  # the track serves the ascent's decisions
+        if not (arb.valid and state < DROGUE):  # the track serves the ascent's decisions
+            self._arb_ms = self.now_ms
+        elif have & HAVE_ACCEL or clipped:
+            self._arb_ms = self.now_ms
             if coasting and acc_kin > -G_MMPS2 // 2 and not clipped:
                 arb.integrate_missing(dt_ms)  # not drag: a shock or an ejection (see step)
-            elif have & HAVE_ACCEL or clipped:
-                arb.integrate(dt_ms, acc_kin, accel_mmps2, clipped)
             else:
-                arb.integrate_missing(dt_ms)
+                arb.integrate(dt_ms, acc_kin, accel_mmps2, clipped)
+        elif dt_ms * 1000 > _ACCEL_HOLD_US:
+            self._arb_ms = self.now_ms
+            arb.integrate_missing(dt_ms)  # no usable reading for that long: unknown by 1 g x dt
         if cfg.has_baro:
             arb.add_baro(self.now_ms, alt_mm, have & HAVE_BARO, self.kf.vel_q4 >> 4)
         mode = 0

@@ -20,7 +20,13 @@ row[19:25] accelerometer-only K0 K1 K2, row[25:41] coast gains with the accelero
 K00 K01 K10 K11 K20 K21 K30 K31, row[41:53] late-coast gains (barometer + gravity) K00 .. K21.
 
 ``bias_q4`` (1/16 mm/s^2) is the accelerometer's estimated bias: every accelerometer innovation
-is taken against acceleration + bias; only ``correct_coast`` updates it.
+is taken against acceleration + bias; only the coast gains update it.
+
+The two-sensor corrections take one row per sensor: each sensor's column of gains comes from the
+row of its own reading interval (a barometer read every 50 ms beside an accelerometer read every
+10 ms). ``correct_baro_part`` / ``correct_accel_part`` apply one sensor's column of the two-sensor
+gains alone: a reading on its own row while the other sensor keeps its schedule on other rows
+(shared/detector.py), so that readings on separate rows add up to the correction of a row with both.
 """
 
 try:
@@ -103,30 +109,51 @@ class Kalman:
         # h += v*T + a*T^2/2 = (2v + a*T) / (2 rate), rounded
         self._store(self.alt_q4 + (2 * self.vel_q4 + dv + rate) // (2 * rate), self.vel_q4 + dv, acc)
 
-    def correct(self, row, alt_mm, acc_mmps2):
-        """Correct with a barometric altitude (mm) and a kinematic acceleration (mm/s^2)."""
-        self._add2(self._baro_innovation(alt_mm), self._accel_innovation(acc_mmps2), row, 1)
+    def correct(self, row_alt, row_acc, alt_mm, acc_mmps2):
+        """Correct with a barometric altitude (mm) and a kinematic acceleration (mm/s^2); each
+        sensor's gains from its own row (the same row when both are read at the same rate)."""
+        self._add2(self._baro_innovation(alt_mm), self._accel_innovation(acc_mmps2), row_alt, row_acc, 1)
 
     def correct_baro(self, row, alt_mm):
         """Correct with a barometric altitude (mm) only (no accelerometer reading)."""
-        self._add(self._baro_innovation(alt_mm), row, 13)
+        self._add(self._baro_innovation(alt_mm), row, 13, 2)
 
     def correct_accel(self, row, acc_mmps2):
         """Correct with a kinematic acceleration (mm/s^2) only (no barometer reading)."""
-        self._add(self._accel_innovation(acc_mmps2), row, 19)
+        self._add(self._accel_innovation(acc_mmps2), row, 19, 2)
 
-    def correct_coast(self, row, alt_mm, acc_mmps2):
+    def correct_coast(self, row_alt, row_acc, alt_mm, acc_mmps2):
         """Correct with both readings and update the accelerometer bias (coast model)."""
         eh = self._baro_innovation(alt_mm)
         ea = self._accel_innovation(acc_mmps2)
-        self._add2(eh, ea, row, 25)
-        self.bias_q4 = _clamp(self.bias_q4 + _mul_gain(eh, row[37], row[38])
-                              + _mul_gain(ea, row[39], row[40]), self.bias_limit_q4)
+        self._add2(eh, ea, row_alt, row_acc, 25)
+        self.bias_q4 = _clamp(self.bias_q4 + _mul_gain(eh, row_alt[37], row_alt[38])
+                              + _mul_gain(ea, row_acc[39], row_acc[40]), self.bias_limit_q4)
+
+    def correct_baro_part(self, row, alt_mm, coast):
+        """Correct with a barometric altitude (mm) through the barometer's column of the two-sensor
+        gains (``coast``: the coast gains, which also update the bias)."""
+        eh = self._baro_innovation(alt_mm)
+        if coast:
+            self._add(eh, row, 25, 4)
+            self.bias_q4 = _clamp(self.bias_q4 + _mul_gain(eh, row[37], row[38]), self.bias_limit_q4)
+        else:
+            self._add(eh, row, 1, 4)
+
+    def correct_accel_part(self, row, acc_mmps2, coast):
+        """Correct with a kinematic acceleration (mm/s^2) through the accelerometer's column of the
+        two-sensor gains (``coast``: the coast gains, which also update the bias)."""
+        ea = self._accel_innovation(acc_mmps2)
+        if coast:
+            self._add(ea, row, 27, 4)
+            self.bias_q4 = _clamp(self.bias_q4 + _mul_gain(ea, row[39], row[40]), self.bias_limit_q4)
+        else:
+            self._add(ea, row, 3, 4)
 
     def correct_gravity(self, row, alt_mm):
         """Late coast: correct with a barometric altitude (mm) and the pseudo-measurement that the
         vertical acceleration is -g (drag vanishes at apogee); the accelerometer is not used."""
-        self._add2(self._baro_innovation(alt_mm), -_G_Q4 - self.acc_q4, row, 41)
+        self._add2(self._baro_innovation(alt_mm), -_G_Q4 - self.acc_q4, row, row, 41)
 
     def _accel_innovation(self, acc_mmps2):
         # acc_q4 + bias_q4 stays within 2**28 (both clamped to 2**27): the sum is inside 31 bits
@@ -139,18 +166,21 @@ class Kalman:
             e = (e >> 8) * self.baro_weight_256
         return e
 
-    def _add2(self, eh, ea, row, i):
-        """Add K [eh, ea] for the two-measurement gains starting at row[i]."""
+    def _add2(self, eh, ea, rh, ra, i):
+        """Add K [eh, ea] for the two-measurement gains starting at index i: the altitude column
+        from row ``rh``, the acceleration column from row ``ra``."""
         self._store(
-            self.alt_q4 + _mul_gain(eh, row[i], row[i + 1]) + _mul_gain(ea, row[i + 2], row[i + 3]),
-            self.vel_q4 + _mul_gain(eh, row[i + 4], row[i + 5]) + _mul_gain(ea, row[i + 6], row[i + 7]),
-            self.acc_q4 + _mul_gain(eh, row[i + 8], row[i + 9]) + _mul_gain(ea, row[i + 10], row[i + 11]))
+            self.alt_q4 + _mul_gain(eh, rh[i], rh[i + 1]) + _mul_gain(ea, ra[i + 2], ra[i + 3]),
+            self.vel_q4 + _mul_gain(eh, rh[i + 4], rh[i + 5]) + _mul_gain(ea, ra[i + 6], ra[i + 7]),
+            self.acc_q4 + _mul_gain(eh, rh[i + 8], rh[i + 9]) + _mul_gain(ea, ra[i + 10], ra[i + 11]))
 
-    def _add(self, e, row, i):
-        """Add K e for the single-sensor gains starting at row[i]."""
+    def _add(self, e, row, i, stride):
+        """Add K e for one column of gains: altitude, velocity and acceleration gains at row[i],
+        row[i + stride], row[i + 2 stride] (stride 2: single-sensor gains; 4: one column of the
+        two-sensor gains)."""
         self._store(self.alt_q4 + _mul_gain(e, row[i], row[i + 1]),
-                    self.vel_q4 + _mul_gain(e, row[i + 2], row[i + 3]),
-                    self.acc_q4 + _mul_gain(e, row[i + 4], row[i + 5]))
+                    self.vel_q4 + _mul_gain(e, row[i + stride], row[i + stride + 1]),
+                    self.acc_q4 + _mul_gain(e, row[i + 2 * stride], row[i + 2 * stride + 1]))
 
     def _store(self, alt, vel, acc):
         """Store the state, clamped to its limits (inline tests: this runs several times a sample)."""

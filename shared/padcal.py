@@ -5,6 +5,13 @@ Portable and allocation-free per sample. Quiet samples are averaged in blocks of
 ``_CAL_BLOCK_MS``; the ground reference is the older of the last two complete blocks, so the
 samples just before a launch (ignition, first motion) never enter it. With no complete block yet
 (a short pad), all quiet samples so far are used.
+
+Each sensor's readings are averaged apart: the sensors need not share samples (a barometer slower
+than the accelerometer, or each sensor on its own row), and a sample without a reading of one
+sensor adds nothing to that sensor's average. A barometric reading is quiet if the accelerometer
+readings on both sides of it are (it waits for the next one's verdict); with no accelerometer
+reading for _ACCEL_HOLD_MS it is judged alone. When the first samples carry no barometric reading,
+the first one is the reference (not a pressure step).
 """
 
 try:
@@ -43,12 +50,17 @@ PAD_ERRORS = const(13)  # ERR_ORIENTATION | ERR_PAD_BARO_STEP | ERR_BARO_ERRATIC
 # (two history slots of _HISTORY_MS): ignition, first motion and a bad reading on the launch
 # sample itself (which the re-base above would take as the ground) never enter it.
 _HISTORY_MS = const(100)
+# An accelerometer verdict (quiet or not) stands for this long: the period of the slowest rate the
+# filter knows (10 Hz). A barometric reading after a longer silence of the accelerometer is judged
+# alone, as on a board without one.
+_ACCEL_HOLD_MS = const(100)
 
 
 class PadCalibration:
     """Ground references from the pad (see the module docstring)."""
 
     def __init__(self, config, ground_alt_mm=None):
+        self.has_baro = config.has_baro
         self.has_accel = config.has_accel
         self.launch_accel_mmps2 = config.launch_accel_mmps2
         self.ground_fixed = ground_alt_mm is not None
@@ -59,16 +71,19 @@ class PadCalibration:
         self._jumps = 0
         self._last_jump_ms = 0
         self._ref_mm = 0  # the altitude the block sums are offsets from
-        self._blk_alt = 0
-        self._blk_acc = 0
-        self._blk_n = 0
+        self._ref_pending = False  # no barometric reading yet: the reference is the first one
+        # sums and counts of quiet pad readings, each sensor apart: this block, the previous one,
+        # all before the first block is complete (altitude offsets from _ref_mm; accelerometer
+        # readings)
+        self._blk_alt = self._blk_alt_n = self._blk_acc = self._blk_acc_n = 0
         self._blk_start_ms = 0
-        self._prev_alt = 0
-        self._prev_acc = 0
-        self._prev_n = 0
-        self._all_alt = 0
-        self._all_acc = 0
-        self._all_n = 0
+        self._prev_alt = self._prev_alt_n = self._prev_acc = self._prev_acc_n = 0
+        self._all_alt = self._all_alt_n = self._all_acc = self._all_acc_n = 0
+        self._accel_quiet = True  # the verdict of the last accelerometer reading
+        self._accel_ms = 0  # when it was taken
+        self._pend_alt = self._pend_alt_n = 0  # barometric readings awaiting the next verdict
+        self._baro_ms = -1  # when the last barometric reading was taken (-1: none yet)
+        self._baro_alt_mm = 0  # that reading
         self._hist_ms = 0  # when the newest history slot was taken
         self._hist0 = 0  # the ground reference at the last three 100 ms ticks, newest first
         self._hist1 = 0
@@ -77,6 +92,7 @@ class PadCalibration:
     def start(self, alt_mm, have):
         """First sample: the provisional ground is its barometric altitude. Returns that datum."""
         self._ref_mm = alt_mm if have & HAVE_BARO else 0
+        self._ref_pending = self.has_baro and not have & HAVE_BARO
         if not self.ground_fixed:
             self.ground_alt_mm = self._ref_mm
         self._hist0 = self._hist1 = self._hist2 = self.ground_alt_mm
@@ -95,9 +111,15 @@ class PadCalibration:
             self._hist_ms = now_ms
 
     def update(self, now_ms, alt_mm, accel_mmps2, have, kf):
-        """Average a quiet pad sample into the references; re-base ``kf`` on a pressure step."""
+        """Average a quiet pad sample's readings into the references; re-base ``kf`` on a pressure
+        step (or on the first barometric reading when the first samples had none)."""
         self._history(now_ms)
         if have & HAVE_BARO:
+            if self._ref_pending:  # the first barometric reading: the first samples had none
+                self._ref_pending = False
+                self._rebase(alt_mm, kf)
+                self._hist0 = self._hist1 = self._hist2 = self.ground_alt_mm
+                return
             jump = alt_mm - (kf.alt_q4 >> 4)
             if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
                 self.errors |= ERR_PAD_BARO_STEP
@@ -106,53 +128,91 @@ class PadCalibration:
                 self._last_jump_ms = now_ms
                 if self._jumps >= 3:
                     self.errors |= ERR_BARO_ERRATIC
-                kf.reset(alt_mm, 0, 0)
-                self._ref_mm = alt_mm
-                self._blk_alt = self._blk_acc = self._blk_n = 0
-                self._prev_n = self._all_n = 0
-                self._all_alt = self._all_acc = 0
-                if not self.ground_fixed:
-                    self.ground_alt_mm = alt_mm
+                self._rebase(alt_mm, kf)
                 return
             if self.errors & ERR_BARO_ERRATIC and now_ms - self._last_jump_ms > 2000:
                 self.errors &= ~ERR_BARO_ERRATIC
+            self._baro_ms = now_ms
+            self._baro_alt_mm = alt_mm
+        d_alt = 0
+        if have & HAVE_BARO:
+            d_alt = alt_mm - self._ref_mm
+            # bounded so that a block's sum stays in 31 bits (1 km x 200 samples at 200 Hz) even if
+            # the board sits in pad mode while the barometer sees a flight (launch refused)
+            if d_alt > _PAD_OFFSET_LIMIT_MM:
+                d_alt = _PAD_OFFSET_LIMIT_MM
+            elif d_alt < -_PAD_OFFSET_LIMIT_MM:
+                d_alt = -_PAD_OFFSET_LIMIT_MM
+        first = self._prev_alt_n + self._prev_acc_n == 0  # no complete block yet
         if have & HAVE_ACCEL:
             limit = self.launch_accel_mmps2
             acc_kin = accel_mmps2 - self.one_g_mmps2
             if not -limit < acc_kin < limit:
+                self._accel_verdict(now_ms, False, first)
                 return
-            if (acc_kin > _PUSH_MMPS2 and have & HAVE_BARO and kf.vel_q4 >> 4 > _QUIET_SPEED_MMPS
-                    and alt_mm - self.ground_alt_mm > _QUIET_CLIMB_MM):
+            # the barometer's reading on this sample or just before it
+            if (acc_kin > _PUSH_MMPS2 and self._baro_ms >= 0 and now_ms - self._baro_ms < _ACCEL_HOLD_MS
+                    and kf.vel_q4 >> 4 > _QUIET_SPEED_MMPS
+                    and self._baro_alt_mm - self.ground_alt_mm > _QUIET_CLIMB_MM):
+                self._accel_verdict(now_ms, False, first)
                 return  # climbing under a push: a slow boost
-            acc = accel_mmps2
-        else:
-            acc = G_MMPS2
-        d_alt = alt_mm - self._ref_mm if have & HAVE_BARO else 0
-        # bounded so that a block's sum stays in 31 bits (1 km x 200 samples at 200 Hz) even if
-        # the board sits in pad mode while the barometer sees a flight (launch refused)
-        if d_alt > _PAD_OFFSET_LIMIT_MM:
-            d_alt = _PAD_OFFSET_LIMIT_MM
-        elif d_alt < -_PAD_OFFSET_LIMIT_MM:
-            d_alt = -_PAD_OFFSET_LIMIT_MM
-        self._blk_alt += d_alt
-        self._blk_acc += acc
-        self._blk_n += 1
-        if self._prev_n == 0:
-            self._all_alt += d_alt
-            self._all_acc += acc
-            self._all_n += 1
+            self._accel_verdict(now_ms, True, first)
+            if have & HAVE_BARO:
+                self._add_alt(d_alt, 1, first)
+            self._blk_acc += accel_mmps2
+            self._blk_acc_n += 1
+            if first:
+                self._all_acc += accel_mmps2
+                self._all_acc_n += 1
+        elif have & HAVE_BARO:
+            if not self.has_accel or now_ms - self._accel_ms >= _ACCEL_HOLD_MS:
+                self._add_alt(d_alt, 1, first)  # no accelerometer (lately): the barometer alone
+            elif self._accel_quiet:
+                self._pend_alt += d_alt  # quiet if the next accelerometer reading is
+                self._pend_alt_n += 1
         if now_ms - self._blk_start_ms >= _CAL_BLOCK_MS:
             # two blocks (2 s) so that coarse quantisation or handling cannot make it flicker
-            self.check_orientation((self._blk_acc + self._prev_acc) // (self._blk_n + self._prev_n))
-            if self._prev_n:
-                self._apply(self._prev_alt, self._prev_acc, self._prev_n)
+            n = self._blk_acc_n + self._prev_acc_n
+            if n:
+                self.check_orientation((self._blk_acc + self._prev_acc) // n)
+            if not first:
+                self._apply(self._prev_alt, self._prev_alt_n, self._prev_acc, self._prev_acc_n)
             self._prev_alt = self._blk_alt
+            self._prev_alt_n = self._blk_alt_n
             self._prev_acc = self._blk_acc
-            self._prev_n = self._blk_n
-            self._blk_alt = self._blk_acc = self._blk_n = 0
+            self._prev_acc_n = self._blk_acc_n
+            self._blk_alt = self._blk_alt_n = self._blk_acc = self._blk_acc_n = 0
             self._blk_start_ms = now_ms
-        elif self._prev_n == 0:
-            self._apply(self._all_alt, self._all_acc, self._all_n)
+        elif first:
+            self._apply(self._all_alt, self._all_alt_n, self._all_acc, self._all_acc_n)
+
+    def _rebase(self, alt_mm, kf):
+        """Restart the filter and the averages at the barometric altitude ``alt_mm``."""
+        kf.reset(alt_mm, 0, 0)
+        self._ref_mm = alt_mm
+        self._blk_alt = self._blk_alt_n = self._blk_acc = self._blk_acc_n = 0
+        self._prev_alt_n = self._prev_acc_n = 0
+        self._all_alt = self._all_alt_n = self._all_acc = self._all_acc_n = 0
+        self._pend_alt = self._pend_alt_n = 0
+        self._baro_ms = -1
+        if not self.ground_fixed:
+            self.ground_alt_mm = alt_mm
+
+    def _accel_verdict(self, now_ms, quiet, first):
+        """An accelerometer reading's verdict: the barometric readings since the previous one were
+        quiet if the accelerometer readings on both sides of them are."""
+        if quiet and self._accel_quiet and self._pend_alt_n:
+            self._add_alt(self._pend_alt, self._pend_alt_n, first)
+        self._pend_alt = self._pend_alt_n = 0
+        self._accel_quiet = quiet
+        self._accel_ms = now_ms
+
+    def _add_alt(self, alt_sum, n, first):
+        self._blk_alt += alt_sum
+        self._blk_alt_n += n
+        if first:
+            self._all_alt += alt_sum
+            self._all_alt_n += n
 
     def check_orientation(self, one_g):
         """Quiet pad readings must average 1 g +-50% on the axis: catches a wrong part (ADXL345 for
@@ -167,14 +227,18 @@ class PadCalibration:
         else:
             self.errors |= ERR_ORIENTATION
 
-    def _apply(self, alt_sum, acc_sum, n):
+    def _apply(self, alt_sum, alt_n, acc_sum, acc_n):
         """Take averages as the ground references. Sums are of altitude offsets from _ref_mm
         (metres) and of ~1 g readings over a few hundred samples: well inside 31 bits. An
         accelerometer average outside 1 g +-50% is not used (a short pad may hold the first
         motion): the nominal 1 g stays."""
-        if not self.ground_fixed:
-            self.ground_alt_mm = self._ref_mm + alt_sum // n
-        one_g = acc_sum // n
-        if self.has_accel and _ONE_G_MIN <= one_g <= _ONE_G_MAX:
-            self.one_g_mmps2 = one_g
-        self.cal_samples = n
+        if alt_n:
+            if not self.ground_fixed:
+                self.ground_alt_mm = self._ref_mm + alt_sum // alt_n
+            self.cal_samples = alt_n
+        if acc_n:
+            one_g = acc_sum // acc_n
+            if self.has_accel and _ONE_G_MIN <= one_g <= _ONE_G_MAX:
+                self.one_g_mmps2 = one_g
+            if not alt_n:
+                self.cal_samples = acc_n

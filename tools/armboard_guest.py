@@ -161,7 +161,7 @@ def _kf_loop(kf, row, alts, accs, ticks, states):
     for i in range(1, len(alts)):
         t0 = tc()
         kf.predict(row)
-        kf.correct(row, alts[i], accs[i])
+        kf.correct(row, row, alts[i], accs[i])  # both sensors read at the same rate
         t1 = tc()
         ticks[i] = td(t1, t0)
         j = 3 * i

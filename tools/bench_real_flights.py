@@ -3,8 +3,13 @@ markdown tables of our drogue times beside the reference apogee, the boards' own
 AltOS's published algorithm replayed on the same record (desktop/study/altos.py).
 
     python tools/bench_real_flights.py
+    python tools/bench_real_flights.py --layout alternating   # the sensors on separate rows
+
+``--layout`` rewrites each AltOS flight's rows first (tests/support/row_layouts.py): ``alternating``,
+``merged_alternating``, ``mixed_rate``, ``bursty`` or ``split_rows``.
 """
 
+import argparse
 import json
 import sys
 from pathlib import Path
@@ -22,7 +27,16 @@ DATA = ROOT / "tests" / "data" / "flights" / "altos"
 FIRM = ROOT / "tests" / "data" / "flights" / "firm"
 
 
-def main():
+LAYOUTS = ("alternating", "merged_alternating", "mixed_rate", "bursty", "split_rows")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--layout", choices=LAYOUTS,
+                    help="rewrite the rows of each AltOS flight first (the FIRM flights as logged)")
+    args = ap.parse_args(argv)
+    from tests.support import row_layouts
+
     reference = json.loads((DATA / "reference.json").read_text())["flights"]
     print("| flight | board | reference apogee s | ours: drogue s | error s | board logged s | board error s "
           "| ours: main s at baro m | AltOS replay: error s |")
@@ -30,6 +44,8 @@ def main():
     ours, boards, altos = [], [], []
     for name, ref in sorted(reference.items()):
         log = read_flight_csv(DATA / name)
+        if args.layout:
+            log = getattr(row_layouts, args.layout)(log)
         res = replay(log, config_for(log))
         drogue, main_ev = res.first("drogue"), res.first("main")
         apogee = ref["apogee_time_s"]
@@ -44,7 +60,9 @@ def main():
             altos.append(abs(altos_s - apogee))
         main_txt = "-"
         if main_ev is not None:
-            baro_m = float(np.median(res.raw_agl_m[main_ev.index - 2:main_ev.index + 1]))
+            # (the last three barometric readings: a layout may leave rows without one)
+            baro = res.raw_agl_m[:main_ev.index + 1]
+            baro_m = float(np.median(baro[~np.isnan(baro)][-3:]))
             main_txt = "%.2f at %.0f" % (main_ev.time_s, baro_m)
         note = " (non-flight)" if ref["non_flight"] else ("" if ref["clean"] else " (anomalous)")
         print("| %s%s | %s | %s | %s | %s | %.2f | %s | %s | %s |" % (

@@ -71,7 +71,8 @@ def main(argv=None) -> int:
         p = result.parameters()
         print(f"### {name}: {p['name']}\n")
         print(f"{p['flights']} flights, seed {p['seed']}, {p['sensor_profile']} at {p['rate_hz']:g} Hz, pad "
-              f"{p['pad_s']:g} s, main configured at {p['main_deploy_m']:g} m; apogee "
+              f"{p['pad_s']:g} s, " + (f"main configured at {p['main_deploy_m']:g} m" if p['main_deploy_m']
+                                       else "no main") + "; apogee "
               f"{min(f['true_apogee_m'] for f in result.flights):.0f} to "
               f"{max(f['true_apogee_m'] for f in result.flights):.0f} m, max Mach "
               f"{min(f['max_mach'] for f in result.flights):.2f} to "

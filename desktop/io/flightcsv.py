@@ -2,12 +2,15 @@
 
 The format is documented for users in docs/FLIGHT_CSV.md. In short: UTF-8 text; `#` lines are
 comments, `# key: value` comments are metadata; one header line; one comma-separated row per sample.
-`time_s` (strictly increasing) and `pressure_pa` and/or `altitude_m` are required; `accel_mps2`
+`time_s` (increasing) and `pressure_pa` and/or `altitude_m` are required; `accel_mps2`
 (specific force along the long axis, +9.81 at rest nose up) is optional; other columns are kept
 uninterpreted in `FlightLog.extra`. An empty cell means "no reading in this sample".
 
 Time is converted once to integer microseconds by exact decimal rounding of the text
-(`time_us = round(time_s * 1e6)`, ties to even, no float error: "10.20" -> 10200000).
+(`time_us = round(time_s * 1e6)`, ties to even, no float error: "10.20" -> 10200000). Rows with
+the same time are folded into the first of them (an identical row dropped, different readings
+merged, the later reading kept where both rows have one) and listed in `FlightLog.duplicate_times`,
+so that every consumer can say what it did (`describe_duplicate_times`).
 
 Every problem with a file's content is a `FlightCSVError` whose message is one line:
 `<path>:<line>: <problem>` (or `<path>: <problem>` where no line applies); a file that cannot be
@@ -30,15 +33,20 @@ from desktop.errors import DesktopError
 from desktop.io.files import decode_text, read_bytes
 
 __all__ = [
+    "DuplicateTime",
     "FlightCSVError",
     "FlightLog",
+    "describe_duplicate_times",
     "read_flight_csv",
     "write_flight_csv",
     "PRESSURE_MAX_PA",
+    "NO_MAIN",
 ]
 
 #: Pressure above this (Pa) is rejected as implausible (sea level is ~101325 Pa).
 PRESSURE_MAX_PA = 200000.0
+#: `# main_deploy_m: none`: the rocket has no main parachute (single deployment).
+NO_MAIN = "none"
 
 # Column names with a meaning to the reader.
 TIME = "time_s"
@@ -76,6 +84,41 @@ class FlightCSVError(DesktopError):
         super().__init__(f"{where}: {problem}")
 
 
+@dataclass(frozen=True)
+class DuplicateTime:
+    """A row whose time equals an earlier row's (to the microsecond), folded into that row."""
+
+    line: int  # the folded row's line
+    kept_line: int  # the line of the row it was folded into (the first with that time)
+    time_s: str  # the time as written on the folded row
+    identical: bool  # same readings in every column: the row was dropped
+    differing: tuple[str, ...] = ()  # columns where both rows had different readings: the later kept
+
+
+def describe_duplicate_times(duplicates: Sequence[DuplicateTime], shown: int = 5) -> str | None:
+    """One line saying how the rows with duplicated time stamps were handled, or None."""
+    if not duplicates:
+        return None
+
+    def lines(ds):
+        text = ", ".join(str(d.line) for d in ds[:shown])
+        return text + (f" and {len(ds) - shown} more" if len(ds) > shown else "")
+
+    parts = []
+    same = [d for d in duplicates if d.identical]
+    if same:
+        parts.append(f"{len(same)} identical row(s) dropped (line {lines(same)})")
+    merged = [d for d in duplicates if not d.identical]
+    if merged:
+        text = (f"{len(merged)} row(s) with different readings merged into the row before "
+                f"(line {lines(merged)})")
+        differing = sorted({c for d in merged for c in d.differing})
+        if differing:
+            text += ", the later reading kept where both had one (" + ", ".join(differing) + ")"
+        parts.append(text)
+    return "duplicated time stamps: " + "; ".join(parts)
+
+
 @dataclass
 class FlightLog:
     """One flight read from a flight CSV. Arrays have one entry per data row."""
@@ -93,6 +136,8 @@ class FlightLog:
     line_numbers: np.ndarray
     #: Source line of each metadata key (for error messages).
     metadata_lines: dict[str, int] = field(default_factory=dict, repr=False)
+    #: Rows folded into an earlier row with the same time (see DuplicateTime).
+    duplicate_times: list[DuplicateTime] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.time_us)
@@ -131,6 +176,13 @@ class FlightLog:
                 self.path, self.metadata_lines.get(key), f"metadata '{key}': {text!r} is out of range"
             )
         return value
+
+    def main_deploy_m(self) -> float | None:
+        """The deployment plan of the `main_deploy_m` metadata: the main's height in m, 0.0 for
+        `none` (no main parachute), or None when the file does not say."""
+        if self.metadata.get("main_deploy_m", "").strip().lower() == NO_MAIN:
+            return 0.0
+        return self.metadata_float("main_deploy_m")
 
 
 # --------------------------------------------------------------------------------------------------
@@ -204,7 +256,8 @@ def _extra_column(path: str, name: str, cells: list[str], lines: list[int]) -> n
 
 def read_flight_csv(path) -> FlightLog:
     """Read and validate a flight CSV. Raises FlightCSVError (one line, with line number) on any
-    problem with the file; never drops a row silently."""
+    problem with the file; never drops a row silently (rows with a duplicated time are folded
+    and listed in ``duplicate_times``)."""
     spath = str(path)
     data = read_bytes(path, "flight CSV")
     if not data:
@@ -309,11 +362,13 @@ def read_flight_csv(path) -> FlightLog:
     if not row_lines:
         raise FlightCSVError(spath, header_lineno, "no data rows after the header")
 
-    # Time: exact integer microseconds, strictly increasing.
+    # Time: exact integer microseconds, increasing; rows with an equal time are folded.
     tcells = cols[seen[TIME]]
     time_us_list = []
     match = _NUMBER_RE.match
     prev_us = None
+    kept: list[int] = []
+    duplicates: list[DuplicateTime] = []
     for i, c in enumerate(tcells):
         lineno = row_lines[i]
         if not c:
@@ -321,13 +376,21 @@ def read_flight_csv(path) -> FlightLog:
         if not match(c):
             raise _bad_number(spath, lineno, TIME, c)
         us = _time_to_us(spath, lineno, c)
-        if prev_us is not None and us <= prev_us:
+        if prev_us is not None and us < prev_us:
             raise FlightCSVError(
-                spath, lineno, f"time not strictly increasing: {c} s after {tcells[i - 1]} s "
+                spath, lineno, f"time goes backwards: {c} s after {tcells[i - 1]} s "
                 f"(line {row_lines[i - 1]})"
             )
+        if us == prev_us:
+            duplicates.append(_fold_row(cols, columns, seen[TIME], kept[-1], i, row_lines, c))
+            continue
         prev_us = us
+        kept.append(i)
         time_us_list.append(us)
+    if duplicates:
+        cols = [[col[i] for i in kept] for col in cols]
+        row_lines = [row_lines[i] for i in kept]
+        tcells = cols[seen[TIME]]
     time_us = np.array(time_us_list, dtype=np.int64)
     time_s = np.array([float(c) for c in tcells], dtype=np.float64)
     line_numbers = np.array(row_lines, dtype=np.int64)
@@ -370,7 +433,26 @@ def read_flight_csv(path) -> FlightLog:
         extra=extra,
         line_numbers=line_numbers,
         metadata_lines=metadata_lines,
+        duplicate_times=duplicates,
     )
+
+
+def _fold_row(cols, columns, time_col, k, i, row_lines, time_text) -> DuplicateTime:
+    """Fold row ``i`` into row ``k`` (same time): an empty cell takes the other row's reading,
+    two different readings keep the later (row i's)."""
+    differing = []
+    identical = True
+    for j, col in enumerate(cols):
+        if j == time_col or col[i] == col[k] or (
+                _NUMBER_RE.match(col[i]) and _NUMBER_RE.match(col[k]) and float(col[i]) == float(col[k])):
+            continue
+        identical = False
+        if col[i] and col[k]:
+            differing.append(columns[j])
+        if col[i]:
+            col[k] = col[i]
+    return DuplicateTime(line=row_lines[i], kept_line=row_lines[k], time_s=time_text,
+                         identical=identical, differing=tuple(differing))
 
 
 # --------------------------------------------------------------------------------------------------

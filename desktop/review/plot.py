@@ -18,7 +18,8 @@ def plot_replay(result, log, config, path):
     ax_alt, ax_vel, ax_acc = axes
     ax_alt.plot(t, result.raw_agl_m, ".", ms=2, color="0.6", label="barometer (raw)")
     ax_alt.plot(t, result.agl_m, color="C0", label="Kalman altitude")
-    ax_alt.axhline(config.values["main_deploy_m"], color="C2", ls=":", lw=1, label="main altitude")
+    if config.values["main_deploy_m"]:
+        ax_alt.axhline(config.values["main_deploy_m"], color="C2", ls=":", lw=1, label="main altitude")
     if "true_altitude_m" in log.extra:
         ax_alt.plot(t, log.extra["true_altitude_m"], color="k", lw=1, ls="--", label="truth")
     ax_vel.plot(t, result.vel_mps, color="C1", label="Kalman velocity")

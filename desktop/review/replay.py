@@ -13,6 +13,7 @@ import numpy as np
 from desktop.errors import OutputPathError
 from desktop.io.config_file import config_file_values
 from desktop.io.files import check_output_file
+from desktop.io.flightcsv import describe_duplicate_times
 from desktop.io.importers import read_flight
 from shared.altitude import pressure_to_alt_mm
 from shared.config import ConfigError, load_config
@@ -117,6 +118,11 @@ def replay(log, config):
                     events.append(Event(name, i, float(log.time_s[i]), fc.agl_mm / 1000,
                                         _detail(fc, 1 << bit)))
     notes = []
+    duplicates = describe_duplicate_times(log.duplicate_times)
+    if duplicates:
+        notes.append(duplicates)
+    main_m = config.values["main_deploy_m"]
+    notes.append("main at %g m AGL" % main_m if main_m else "no main (single deployment)")
     if fc.ground_fixed:
         notes.append("ground reference from metadata ground_pressure_pa")
     else:
@@ -138,9 +144,10 @@ def _detail(fc, bit):
 def config_for(log, config_path=None, overrides=None):
     """The configuration for replaying ``log``: a JSON file, else the board's own configuration
     when the log is a decoded board log (``# board_config:`` metadata), else defaults; then CLI
-    overrides. The sensors setting follows the columns present, and the accelerometer's range and
-    the barometer's lag and noise class come from the log's ``accel_range_g``, ``baro_lag_ms``
-    and ``baro_noise`` metadata when the configuration does not set them."""
+    overrides. The sensors setting follows the columns present; the deployment plan (the log's
+    ``main_deploy_m`` metadata: a height, or ``none``), the accelerometer's range and the
+    barometer's lag and noise class come from the log's metadata when the configuration does not
+    set them."""
     values = {}
     if config_path:
         values = config_file_values(config_path)
@@ -153,6 +160,8 @@ def config_for(log, config_path=None, overrides=None):
             raise ConfigError("%s: metadata board_config is not a JSON object of settings (got %s)" % (
                 log.path, type(values).__name__))
     values = dict(values, **(overrides or {}))
+    if "main_deploy_m" not in values and log.main_deploy_m() is not None:
+        values["main_deploy_m"] = log.main_deploy_m()
     for key in ("accel_range_g", "baro_lag_ms"):
         if key not in values and log.metadata_float(key) is not None:
             values[key] = log.metadata_float(key)
@@ -174,7 +183,9 @@ def register(subparsers):
                     "altitude above the pad.")
     p.add_argument("file", help="flight CSV, or an export docs/IMPORT.md lists (format detected)")
     p.add_argument("--config", help="flight configuration JSON (docs/CONFIG.md); defaults otherwise")
-    p.add_argument("--main-altitude", type=float, metavar="M", help="main deployment altitude, m AGL")
+    p.add_argument("--main-altitude", type=float, metavar="M",
+                   help="main deployment altitude, m AGL, 0 for no main (default: the configuration, "
+                        "else the file's main_deploy_m metadata, else 250)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--plot", metavar="OUT.png", help="write a plot of the replay")
     p.add_argument("--report", metavar="DIR", help="write the flight review: DIR/report.png (one page) "

@@ -430,8 +430,9 @@ def fly_closed_loop(rocket, profile: str | None = None, rate_hz: float | None = 
     """Fly a rocket TOML (path or ``RocketSpec``) in RocketPy with the flight computer deciding both
     parachutes. Sensors: ``profile`` (default the file's [board] sensors) at ``rate_hz`` (default the
     file's rate). ``config``: dict of settings (main_deploy_m defaults to the file's [main]
-    deploy_altitude_m). ``time_overshoot=False`` (RocketPy stops at every sample: the parachute
-    triggers at the sample of the decision) unless told; see the module docstring."""
+    deploy_altitude_m, or 0, no main, when it has none). ``time_overshoot=False`` (RocketPy stops
+    at every sample: the parachute triggers at the sample of the decision) unless told; see the
+    module docstring."""
     from desktop.io.rocket_file import load_rocket
     from desktop.sim.trajectory import build_rocketpy
 
@@ -444,7 +445,7 @@ def fly_closed_loop(rocket, profile: str | None = None, rate_hz: float | None = 
     rate_hz = float(rate_hz or board.get("rate_hz", 100.0))
     env, rkt = build_rocketpy(spec.replace(drogue=None, main=None))
     baro, accel = add_board_sensors(rkt, profile, rate_hz, seed)
-    values = {"main_deploy_m": spec.main.deploy_altitude_m} if spec.main is not None else {}
+    values = {"main_deploy_m": spec.main.deploy_altitude_m if spec.main is not None else 0}  # 0: no main
     if isinstance(config, Config):
         cfg = config
     else:

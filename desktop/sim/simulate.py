@@ -76,6 +76,8 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from desktop.io.flightcsv import NO_MAIN
+
     if args.list_sensors:
         _list_sensors()
         return 0
@@ -104,6 +106,7 @@ def run(args) -> int:
     from desktop.sim.sensor_models import BoardConfig, parse_profile  # scipy: seconds to import
 
     board_defaults: dict = {}
+    main_plan = None  # the rocket's main deployment height, NO_MAIN, or None (not known)
     if args.rocket:
         from desktop.io.rocket_file import load_rocket
         from desktop.sim.trajectory import simulate_rocket
@@ -113,6 +116,7 @@ def run(args) -> int:
         profile = parse_profile(args.sensors or board_defaults.get("sensors", DEFAULT_PROFILE))
         board = _board(args, board_defaults, BoardConfig)
         traj = simulate_rocket(spec, after_main_s=args.after_main_s, dof=args.dof)
+        main_plan = spec.main.deploy_altitude_m if spec.main is not None else NO_MAIN
     else:
         from desktop.io.openrocket import read_openrocket
 
@@ -125,11 +129,16 @@ def run(args) -> int:
     from desktop.sim.sensor_models import make_record, write_record
 
     record = make_record(traj, profile, seed=args.seed, board=board)
+    if main_plan is not None:
+        # the deployment plan travels with the record: replay and studies fly the same plan
+        record.metadata["main_deploy_m"] = main_plan
     write_record(args.out, record)
     if args.plot:
         plot_record(record, args.plot)
+    plan = ("" if main_plan is None else "; no main" if main_plan == NO_MAIN
+            else f"; main planned at {main_plan:g} m AGL")
     print(f"wrote {args.out}: {len(record.time_s)} rows at {board.rate_hz:g} Hz, {profile.name}, "
-          f"seed {args.seed}; {traj.summary()}")
+          f"seed {args.seed}; {traj.summary()}{plan}")
     return 0
 
 

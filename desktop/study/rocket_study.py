@@ -8,8 +8,11 @@ noise, offsets, bias, scale error, transonic static-port error, timing, all draw
 and every method runs on that record:
 
 - ``flight-computer``: the exact shared/ code through ``desktop.review.replay.replay`` (the record as the
-  flight CSV would give it, default configuration with the part's ``accel_range_g``); its drogue
-  event, i.e. the state machine's decision, is the detection.
+  flight CSV would give it; the flight configuration of ``--config`` or the defaults, with the
+  part's ``accel_range_g``, and the deployment plan: the rocket's [main] height, or no main, unless
+  ``--main-altitude`` or the configuration sets it); its drogue event, i.e. the state machine's
+  decision, is the detection. The simulated main parachute opens where the flight computer is
+  configured to fire it.
 - ``seed-kalman/seed``: the seed's float Kalman filter with gains from the seed's recursion at the
   record's (median) sample period, and the seed's three-falling-samples rule.
 - ``boxcar/seed``: moving average over the seed study's 2.0 s (40 samples at 20 Hz; the same
@@ -38,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from desktop.errors import UsageError
+from desktop.io.config_file import config_file_values
 from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
 from desktop.study import baselines
 from desktop.study.metrics import METRIC_KEYS, format_cell, metrics, table_lines
@@ -49,10 +53,14 @@ _MD_HEADERS = ("mean \\|err\\| s", "mean err s", "median \\|err\\| s", "p95 \\|e
                "mean \\|v\\| m/s", ">1 s early", "none")
 
 
-def main_deploy_default_m() -> float:
-    from shared.config import SCHEMA
-
-    return float(SCHEMA["main_deploy_m"][0])
+def main_deploy_plan_m(spec, config_values=None, main_deploy_m=None) -> float:
+    """The main deployment height of the study (m AGL; 0: no main): ``main_deploy_m`` if given,
+    else the flight configuration's, else the rocket's [main] height, else 0 (it has no main)."""
+    if main_deploy_m is not None:
+        return float(main_deploy_m)
+    if config_values and "main_deploy_m" in config_values:
+        return float(config_values["main_deploy_m"])
+    return float(spec.main.deploy_altitude_m) if spec.main is not None else 0.0
 
 
 @dataclass(frozen=True)
@@ -112,7 +120,7 @@ def draw_flight(spec, seed: int, index: int, disp: Dispersions = DEFAULT_DISPERS
 def apply_draw(spec, draw: FlightDraw, main_deploy_m: float | None = None):
     """The dispersed rocket. The thrust curve's times are scaled by the burn-time factor and its
     thrust by impulse/burn-time (propellant mass unchanged); the main parachute, if any, opens where
-    the flight computer is configured to fire it (``main_deploy_m``)."""
+    the flight computer is configured to fire it (``main_deploy_m``; 0: never, no main)."""
     eng = spec.motor
     b, i = draw.burn_time_scale, draw.impulse_scale
     motor = dataclasses.replace(eng, time_s=tuple(t * b for t in eng.time_s),
@@ -132,7 +140,8 @@ def apply_draw(spec, draw: FlightDraw, main_deploy_m: float | None = None):
     else:
         changes["cd_table"] = tuple((m, c * draw.cd_scale) for m, c in spec.cd_table)
     if spec.main is not None and main_deploy_m is not None:
-        changes["main"] = dataclasses.replace(spec.main, deploy_altitude_m=float(main_deploy_m))
+        changes["main"] = (dataclasses.replace(spec.main, deploy_altitude_m=float(main_deploy_m))
+                           if main_deploy_m else None)
     return spec.replace(**changes)
 
 
@@ -147,17 +156,21 @@ class StudySettings:
     profile: str
     rate_hz: float
     pad_s: float
-    main_deploy_m: float
+    main_deploy_m: float  # 0: no main
     dispersions: Dispersions = DEFAULT_DISPERSIONS
     after_main_s: float = 5.0  # record ends this long after the main crosses main_deploy_m
+    # the flight configuration (``--config``) as (key, value) pairs; main_deploy_m is the field above
+    config: tuple = ()
 
 
 def settings_for(rocket_path, seed: int, profile: str | None = None, pad_s: float | None = None,
                  rate_hz: float | None = None, dispersions: Dispersions = DEFAULT_DISPERSIONS,
-                 main_deploy_m: float | None = None) -> StudySettings:
-    """Study settings: the rocket file's [board] defaults unless given."""
+                 main_deploy_m: float | None = None, config_values: dict | None = None) -> StudySettings:
+    """Study settings: the rocket file's [board] defaults and deployment plan unless given;
+    ``config_values``: a flight configuration (docs/CONFIG.md), validated here."""
     from desktop.io.rocket_file import load_rocket
     from desktop.sim.sensor_models import BoardConfig, parse_profile
+    from shared.config import load_config
 
     spec = load_rocket(rocket_path)
     board = spec.board
@@ -166,9 +179,11 @@ def settings_for(rocket_path, seed: int, profile: str | None = None, pad_s: floa
         rocket=str(rocket_path), seed=int(seed), profile=prof,
         rate_hz=float(rate_hz if rate_hz is not None else board.get("rate_hz", 100.0)),
         pad_s=float(pad_s if pad_s is not None else board.get("pad_s", 20.0)),
-        main_deploy_m=float(main_deploy_m if main_deploy_m is not None else main_deploy_default_m()),
+        main_deploy_m=main_deploy_plan_m(spec, config_values, main_deploy_m),
         dispersions=dispersions,
+        config=tuple(sorted((k, v) for k, v in (config_values or {}).items() if k != "main_deploy_m")),
     )
+    load_config(dict(s.config, main_deploy_m=s.main_deploy_m))  # one-line ConfigError if invalid
     BoardConfig(rate_hz=s.rate_hz, pad_s=s.pad_s).validate()
     return s
 
@@ -187,6 +202,7 @@ def _spec(path):
 
 def simulate_flight(settings: StudySettings, index: int):
     """(draw, trajectory, board record) of flight ``index``."""
+    from desktop.io.flightcsv import NO_MAIN
     from desktop.sim import trajectory as tr
     from desktop.sim.sensor_models import BoardConfig, make_record
 
@@ -204,14 +220,14 @@ def simulate_flight(settings: StudySettings, index: int):
     # descent costs replay time and decides nothing)
     after = traj.time_s > traj.apogee_time_s
     below = np.flatnonzero(after & (traj.altitude_m <= settings.main_deploy_m))
-    if below.size:
+    if below.size and settings.main_deploy_m:
         traj = traj.truncated(float(traj.time_s[below[0]]) + settings.after_main_s)
     board = BoardConfig(rate_hz=settings.rate_hz, pad_s=settings.pad_s)
     record = make_record(traj, settings.profile, seed=draw.record_seed, board=board)
     record.metadata.update({f"draw_{k}": round(v, 6) if isinstance(v, float) else v
                             for k, v in draw.as_dict().items() if k != "record_seed"})
     record.metadata["study_seed"] = settings.seed
-    record.metadata["main_deploy_m"] = settings.main_deploy_m
+    record.metadata["main_deploy_m"] = settings.main_deploy_m if settings.main_deploy_m else NO_MAIN
     return draw, traj, record
 
 
@@ -297,11 +313,11 @@ def comparison_methods(time_s, altitude_m, accel_mps2) -> dict:
     return out
 
 
-def flight_computer_config(log):
+def flight_computer_config(log, settings: StudySettings):
+    """The study's flight configuration for ``log``, with the deployment plan of its metadata."""
     from desktop.review.replay import config_for
 
-    return config_for(log, overrides={"main_deploy_m": float(log.metadata_float("main_deploy_m"))}
-                      if log.metadata_float("main_deploy_m") is not None else None)
+    return config_for(log, overrides=dict(settings.config))
 
 
 def evaluate_flight(settings: StudySettings, index: int, detail: bool = False) -> dict:
@@ -314,7 +330,7 @@ def evaluate_flight(settings: StudySettings, index: int, detail: bool = False) -
     draw, traj, record = simulate_flight(settings, index)
     t1 = time.perf_counter()
     log = record_log(record)
-    config = flight_computer_config(log)
+    config = flight_computer_config(log, settings)
     res = replay(log, config)
     t2 = time.perf_counter()
     t_b, alt_b, acc_b = baseline_inputs(log, res)
@@ -469,7 +485,7 @@ def flight_computer_summary(flights: list, main_deploy_m: float) -> dict:
         "n_fired_before_burnout": int(sum(x["fired_before_burnout"] for x in fc)),
         "n_pyro_before_launch": int(sum(x["pyro_before_launch"] for x in fc)),
         "n_main": int(ok.sum()),
-        "main_deploy_m": float(main_deploy_m),
+        "main_deploy_m": float(main_deploy_m),  # 0: no main
         "main_altitude_error_mean_m": float(np.mean(err)) if err.size else nan,
         "main_altitude_error_mean_abs_m": float(np.mean(np.abs(err))) if err.size else nan,
         "main_altitude_error_max_abs_m": float(np.max(np.abs(err))) if err.size else nan,
@@ -543,6 +559,8 @@ def summary_lines(result: RocketStudyResult) -> list[str]:
             f"{s['main_deploy_m']:g} m: mean {s['main_altitude_error_mean_m']:+.1f} m, mean |err| "
             f"{s['main_altitude_error_mean_abs_m']:.1f} m, max |err| "
             f"{s['main_altitude_error_max_abs_m']:.1f} m" if s["n_main"] else f"main deployments 0/{n}")
+    if not s["main_deploy_m"]:
+        main += " (no main planned)"
     return [
         f"flight-computer: fired before burnout {s['n_fired_before_burnout']}/{n}; pyro event before "
         f"launch {s['n_pyro_before_launch']}/{n}; {main}; accelerometer clipped on "
@@ -731,8 +749,10 @@ def main(args) -> int:
         raise UsageError(f"--max-wind-mps must be 0 to {MAX_WIND_LIMIT_MPS:g} m/s")
     disp = dataclasses.replace(DEFAULT_DISPERSIONS, max_wind_mps=args.max_wind_mps) \
         if args.max_wind_mps is not None else DEFAULT_DISPERSIONS
+    config_values = config_file_values(args.config) if args.config else None
     settings = settings_for(args.rocket, args.seed, profile=args.sensors, pad_s=args.pad_s,
-                            dispersions=disp)
+                            dispersions=disp, main_deploy_m=args.main_altitude,
+                            config_values=config_values)
     if args.export_csv:
         info = export_flight_csv(settings, args.flight, args.export_csv)
         print(f"wrote {args.export_csv}: flight {args.flight} of seed {args.seed}, true apogee "

@@ -233,6 +233,11 @@ def register(subparsers):
                    help="sensor profile BARO+ACCEL (default: the rocket file's [board] sensors)")
     r.add_argument("--max-wind-mps", type=float, metavar="V",
                    help="wind speed drawn uniformly in 0..V m/s (default 9)")
+    r.add_argument("--config", metavar="CONFIG.json",
+                   help="flight configuration of the flight computer (docs/CONFIG.md), as replay --config")
+    r.add_argument("--main-altitude", type=float, metavar="M",
+                   help="main deployment altitude, m AGL, 0 for no main (default: the configuration's, "
+                        "else the rocket file's [main], else no main)")
     p.set_defaults(func=main)
     return p
 
@@ -258,7 +263,7 @@ def main(args) -> int:
         from desktop.study import rocket_study as rocket_montecarlo
 
         return rocket_montecarlo.main(args)
-    for flag in ("workers", "sensors", "max_wind_mps"):
+    for flag in ("workers", "sensors", "max_wind_mps", "config", "main_altitude"):
         if getattr(args, flag, None) is not None:
             raise UsageError(f"--{flag.replace('_', '-')} needs --rocket")
     pad_s = DEFAULT_PAD_S[args.params] if args.pad_s is None else args.pad_s

@@ -181,11 +181,8 @@ BAD_FILES = [
     ("overflow", H + "0,1000,1e400\n", 2, "column 'accel_mps2': '1e400' is out of range"),
     ("time_overflow", H + "1e30,1000,1\n", 2, "column 'time_s': '1e30' is out of range"),
     ("empty_time", H + "0,1000,1\n,1000,1\n", 3, "column 'time_s' is empty"),
-    ("time_equal", H + "0.10,1000,1\n0.1,1000,1\n", 3,
-     "not strictly increasing: 0.1 s after 0.10 s (line 2)"),
     ("time_back", H + "0,1,1\n2.5,1,1\n2.4,1,1\n", 4,
-     "not strictly increasing: 2.4 s after 2.5 s (line 3)"),
-    ("time_same_us", H + "0.0000001,1,1\n0.0000004,1,1\n", 3, "not strictly increasing"),
+     "time goes backwards: 2.4 s after 2.5 s (line 3)"),
     ("pressure_zero", H + "0,1000,1\n1,0,1\n", 3, "column 'pressure_pa': 0 Pa is implausible"),
     ("pressure_negative", H + "0,-5.5,1\n", 2, "'pressure_pa': -5.5 Pa is implausible"),
     ("pressure_high", H + "0,1000,1\n1,200000.01,1\n", 3, "200000.01 Pa is implausible"),
@@ -556,3 +553,33 @@ def test_firm_flights_read_with_provenance_and_reference_apogee(name, apogee_s):
     assert log.time_s[0] < apogee_s < log.time_s[-1] and log.has_accel and log.has_pressure
     assert "MIT License" in (FIRM_DIR / "LICENSE-AirbrakesV2.txt").read_text()
     assert name in (FIRM_DIR / "README.md").read_text()
+
+
+@pytest.mark.parametrize("rows, expected, note", [
+    # the same row twice (a logger writing a record again): dropped
+    ("0.10,1000,1\n0.1,1000,1.0\n0.2,999,2\n", [(1000.0, 1.0), (999.0, 2.0)],
+     "1 identical row(s) dropped (line 3)"),
+    # each sensor on its own row with the same time stamp: merged into one row
+    ("0.1,1000,\n0.1,,2\n", [(1000.0, 2.0)], "1 row(s) with different readings merged into the row "
+     "before (line 3)"),
+    # two different readings at the same time: the later kept, and said so
+    ("0.1,1000,1\n0.1,1001,\n0.2,1002,3\n", [(1001.0, 1.0), (1002.0, 3.0)],
+     "the later reading kept where both had one (pressure_pa)"),
+    # times that round to the same microsecond are the same time
+    ("0.0000001,1,1\n0.0000004,1,1\n", [(1.0, 1.0)], "1 identical row(s) dropped (line 3)"),
+])
+def test_duplicated_times_are_folded_with_a_record(tmp_path, rows, expected, note):
+    from desktop.io.flightcsv import describe_duplicate_times
+
+    log = read_flight_csv(_write(tmp_path, H + rows))
+    assert list(zip(log.pressure_pa.tolist(), log.accel_mps2.tolist(), strict=True)) == expected
+    assert np.all(np.diff(log.time_us) > 0) and len(log.line_numbers) == len(expected)
+    assert all(d.kept_line == d.line - 1 for d in log.duplicate_times)
+    assert note in describe_duplicate_times(log.duplicate_times)
+
+
+def test_no_duplicates_no_record(tmp_path):
+    from desktop.io.flightcsv import describe_duplicate_times
+
+    log = read_flight_csv(_write(tmp_path, H + "0,1,1\n1,1,1\n"))
+    assert log.duplicate_times == [] and describe_duplicate_times(log.duplicate_times) is None

@@ -42,7 +42,7 @@ def test_plot_is_written(tmp_path):
 @pytest.mark.parametrize("content,expected", [
     ("", "empty"),
     ("time_s,pressure_pa\n0.0,abc\n", ":2:"),
-    ("time_s,pressure_pa\n0.0,100000\n0.0,100000\n", "increasing"),
+    ("time_s,pressure_pa\n1.0,100000\n0.0,100000\n", "backwards"),
     ("time_s,accel_mps2\n0.0,9.8\n", "pressure_pa"),
     ("\x00\x01\x02binary", "binary"),
 ])
@@ -78,3 +78,55 @@ def test_decoded_board_log_replays_with_the_board_configuration(tmp_path, capsys
     bad.write_text("# board_config: {main_deploy_m: 400\n" + text)
     assert main(["replay", str(bad)]) == 2
     assert "board_config is not valid JSON" in capsys.readouterr().err
+
+
+def test_duplicated_time_stamps_replay_with_a_note(tmp_path, capsys):
+    # a real log with rows repeated at the same time stamp, one identical and one with another
+    # pressure: replayed, never refused, and the output says what was done
+    lines = FLIGHT.read_text().splitlines(keepends=True)
+    first = next(i for i, line in enumerate(lines) if line.startswith("time_s")) + 1
+    row = lines[first + 500].split(",")
+    changed = ",".join([row[0], "%.1f" % (float(row[1]) + 13.6)] + row[2:])
+    text = "".join(lines[:first + 301] + [lines[first + 300]] + lines[first + 301:first + 501] + [changed]
+                   + lines[first + 501:])
+    dup = tmp_path / "dup.csv"
+    dup.write_text(text)
+    assert main(["replay", str(dup)]) == 0
+    out = capsys.readouterr().out
+    assert "duplicated time stamps: 1 identical row(s) dropped" in out
+    assert "the later reading kept where both had one (pressure_pa)" in out
+    assert main(["replay", str(dup), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert any(n.startswith("duplicated time stamps") for n in data["notes"])
+    flight_events = [e["event"] for e in data["events"] if e["event"] not in ("health", "mode")]
+    assert flight_events == ["launch", "burnout", "apogee", "drogue", "main"]
+
+
+@pytest.mark.parametrize("plan, flag, main_m", [
+    ("400", None, 400),  # simulate's record of a rocket with its main at 400 m
+    ("none", None, None),  # a rocket with no main: no main event
+    ("none", "300", 300),  # the user overrides the file's plan
+    ("400", "0", None),  # ... either way
+])
+def test_the_files_deployment_plan_is_honoured(tmp_path, capsys, plan, flag, main_m):
+    text = FLIGHT.read_text().replace("# main_deploy_m: 250\n", "# main_deploy_m: %s\n" % plan)
+    path = tmp_path / "plan.csv"
+    path.write_text(text)
+    argv = ["replay", str(path), "--json"] + (["--main-altitude", flag] if flag else [])
+    assert main(argv) == 0
+    data = json.loads(capsys.readouterr().out)
+    mains = [e for e in data["events"] if e["event"] == "main"]
+    assert data["config"]["main_deploy_m"] == (main_m or 0)
+    if main_m is None:
+        assert not mains and "no main (single deployment)" in data["notes"]
+    else:
+        assert len(mains) == 1 and main_m - 10 <= mains[0]["altitude_m"] <= main_m
+
+
+def test_a_bad_deployment_plan_is_one_line(tmp_path):
+    path = tmp_path / "bad.csv"
+    path.write_text(FLIGHT.read_text().replace("# main_deploy_m: 250\n", "# main_deploy_m: 400 m\n"))
+    proc = subprocess.run([sys.executable, "-m", "desktop", "replay", str(path)], capture_output=True,
+                          text=True, cwd=Path(__file__).parents[2])
+    assert proc.returncode == 2 and "metadata 'main_deploy_m': '400 m' is not a number" in proc.stderr
+    assert "Traceback" not in proc.stderr

@@ -42,7 +42,8 @@ def c6_parallel(c6_settings):
 
 
 def _without_timing(flights):
-    return [{k: v for k, v in f.items() if k != "timing_s"} for f in flights]
+    # NaN (no main on the C6) compared as None
+    return rm._clean([{k: v for k, v in f.items() if k != "timing_s"} for f in flights])
 
 
 def test_draws_are_seeded_bounded_and_independent_of_the_batch():
@@ -77,7 +78,7 @@ def test_same_results_whatever_the_worker_count(c6_serial, c6_parallel, c6_setti
     assert c6_parallel.speed["workers"] == 2 and c6_serial.speed["workers"] == 1
     assert _without_timing(c6_serial.flights) == _without_timing(c6_parallel.flights)
     assert c6_serial.table == c6_parallel.table
-    assert c6_serial.fc_summary == c6_parallel.fc_summary
+    assert rm._clean(c6_serial.fc_summary) == rm._clean(c6_parallel.fc_summary)
     # and flight 2 alone is the same flight as flight 2 of the batch
     alone = rm.evaluate_flight(c6_settings, 2)
     assert _without_timing([alone]) == _without_timing(c6_serial.flights[2:3])
@@ -113,11 +114,11 @@ def test_each_method_equals_a_direct_call(c6_settings, c6_serial, tmp_path):
     np.testing.assert_array_equal(mem.time_s, log.time_s)
     np.testing.assert_array_equal(mem.pressure_pa, log.pressure_pa)
     np.testing.assert_array_equal(mem.accel_mps2, log.accel_mps2)
-    assert log.metadata_float("main_deploy_m") == 250.0
+    assert log.metadata["main_deploy_m"] == "none" and log.main_deploy_m() == 0.0  # the C6: no main
     # the flight computer: python -m desktop replay's code on the written file
     res = replay(log, config_for(log))
     assert got["detections"]["flight-computer"] == res.first("drogue").time_s
-    assert got["flight_computer"]["main_s"] == res.first("main").time_s
+    assert res.first("main") is None and math.isnan(got["flight_computer"]["main_s"])
     assert got["true_apogee_s"] == traj.apogee_time_s
     # the comparison methods: the baselines' functions on the same record
     t, alt, acc = rm.baseline_inputs(log)
@@ -149,6 +150,8 @@ def test_hold_fills_missing_readings():
 @pytest.mark.parametrize("name", ["j360_sport", "k400_dual_deploy", "k1000_min_dia", "m1670_3km"])
 def test_every_example_rocket_runs(name):
     res = rm.run_rocket_study(rm.settings_for(ROCKETS / f"{name}.toml", 1), 2, workers=2)
+    # the rocket's own deployment plan (m1670: main at 400 m), never a default
+    assert res.settings.main_deploy_m == load_rocket(ROCKETS / f"{name}.toml").main.deploy_altitude_m
     fc = res.table["flight-computer"]
     assert fc["n_no_detection"] == 0 and fc["n_early_1s"] == 0
     assert fc["max_abs_error_s"] < 0.5
@@ -174,7 +177,8 @@ def test_cli_table_json_and_errors(capsys, tmp_path):
     assert set(data["methods"]) == set(rm.METHODS)
     for m in rm.METHODS:
         assert set(data["methods"][m]) == set(METRIC_KEYS)
-    assert data["flight_computer"]["n_flights"] == 2 and data["parameters"]["main_deploy_m"] == 250.0
+    assert data["flight_computer"]["n_flights"] == 2 and data["parameters"]["main_deploy_m"] == 0.0
+    assert data["flight_computer"]["n_main"] == 0 and "no main planned" in out
     assert data["parameters"]["dispersions"]["cd"] == 0.10 and len(data["flights"]) == 2
     assert data["speed"]["workers"] == 1 and data["speed"]["flights_per_minute"] > 0
     # the same two flights as the study's first two
@@ -191,6 +195,10 @@ def test_cli_table_json_and_errors(capsys, tmp_path):
     # errors: one line, status 2
     for bad, fragment in (
         (["montecarlo", "--workers", "2"], "needs --rocket"),
+        (["montecarlo", "--config", "c.json"], "needs --rocket"),
+        (["montecarlo", "--rocket", str(C6), "--main-altitude", "5"], "main_deploy_m = 5"),
+        (["montecarlo", "--rocket", str(C6), "--config", str(tmp_path / "none.json")],
+         "configuration file not found"),
         (["montecarlo", "--rocket", str(C6), "--params", "seed"], "--params"),
         (["montecarlo", "--rocket", str(tmp_path / "none.toml")], "not found"),
         (["montecarlo", "--rocket", str(C6), "--sensors", "bmp999+x"], "unknown sensor profile"),
@@ -208,3 +216,32 @@ def test_plots_are_written_and_markdown_table_has_every_method(c6_serial, tmp_pa
         assert p.stat().st_size > 20000
     md = rm.format_markdown(c6_serial)
     assert md.count("\n") == len(rm.METHODS) + 1 and "**flight-computer**" in md
+
+
+def test_deployment_plan_the_rocket_the_configuration_and_the_flag(tmp_path):
+    m1670 = ROCKETS / "m1670_3km.toml"
+    assert rm.settings_for(m1670, 1).main_deploy_m == 400.0  # the rocket file's [main]
+    assert rm.settings_for(C6, 1).main_deploy_m == 0.0  # no [main]: no main
+    s = rm.settings_for(m1670, 1, config_values={"main_deploy_m": 300, "apogee_delay_s": 1})
+    assert s.main_deploy_m == 300.0 and dict(s.config) == {"apogee_delay_s": 1}
+    flag_wins = rm.settings_for(m1670, 1, main_deploy_m=350, config_values={"main_deploy_m": 300})
+    assert flag_wins.main_deploy_m == 350
+    # no main: the simulated rocket flies without it, the record says "none", the computer fires none
+    spec = load_rocket(m1670)
+    draw = rm.draw_flight(spec, 1, 0)
+    assert rm.apply_draw(spec, draw, 0.0).main is None
+    assert rm.apply_draw(spec, draw, 300.0).main.deploy_altitude_m == 300.0
+    # the configuration reaches the flight computer, the plan comes from the record's metadata
+    record_meta = {"main_deploy_m": "none"}
+    log = read_flight_csv(_tiny_csv(tmp_path, record_meta))
+    cfg = rm.flight_computer_config(log, s)
+    assert cfg.values["apogee_delay_s"] == 1 and cfg.values["main_deploy_m"] == 0
+
+
+def _tiny_csv(tmp_path, metadata):
+    from desktop.io.flightcsv import write_flight_csv
+
+    path = tmp_path / "tiny.csv"
+    write_flight_csv(path, {"time_s": [0.0, 0.01], "pressure_pa": [100000.0, 100000.0],
+                            "accel_mps2": [9.8, 9.8]}, metadata=metadata)
+    return path

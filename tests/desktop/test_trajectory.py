@@ -252,13 +252,39 @@ def test_simulate_command(tmp_path, capsys):
     rc = run_cli(["simulate", str(ROCKETS / "c6_model.toml"), "--out", str(out), "--seed", "4",
                   "--rate-hz", "50", "--pad-s", "5", "--plot", str(png)])
     assert rc == 0
-    assert "wrote" in capsys.readouterr().out
+    assert "no main" in capsys.readouterr().out
     log = read_flight_csv(out)
+    assert log.metadata["main_deploy_m"] == "none"  # the C6 has no [main]: the plan says so
     assert log.metadata["sensor_profile"] == "bmp390+mpu6050"  # from the TOML's [board]
     assert log.metadata["seed"] == "4"
     assert log.time_s[0] >= -5.0 and np.median(np.diff(log.time_s)) == pytest.approx(0.02, abs=1e-3)
     assert np.nanmax(log.accel_mps2) == pytest.approx(32767 / 2048 * G0, abs=0.01)  # clipped at 16 g
     assert png.stat().st_size > 10000
+    # the replay flies the plan: one parachute, no main event
+    from desktop.review.replay import config_for, replay
+
+    res = replay(log, config_for(log))
+    assert res.first("drogue") is not None and res.first("main") is None and not res.pyro_main.any()
+
+
+@pytest.mark.slow
+def test_simulate_then_replay_opens_the_main_where_the_rocket_says(tmp_path, capsys):
+    # examples/rockets/m1670_3km.toml: main at 400 m. RocketPy opens it there, the record says so,
+    # and the replay fires it there (not at the configuration's default 250 m)
+    from desktop.review.replay import config_for, replay
+
+    out = tmp_path / "m1670.csv"
+    assert run_cli(["simulate", str(ROCKETS / "m1670_3km.toml"), "--out", str(out), "--seed", "2",
+                    "--pad-s", "5", "--after-main-s", "5"]) == 0
+    assert "main planned at 400 m AGL" in capsys.readouterr().out
+    log = read_flight_csv(out)
+    assert log.main_deploy_m() == 400.0
+    res = replay(log, config_for(log))
+    main_ev = res.first("main")
+    assert main_ev is not None and abs(log.extra["true_altitude_m"][main_ev.index] - 400) <= 10
+    # RocketPy's own main: its trigger at 400 m, opening the parachute's lag later
+    trigger_s = float(log.metadata["true_main_time_s"]) - load_rocket(ROCKETS / "m1670_3km.toml").main.lag_s
+    assert abs(np.interp(trigger_s, log.time_s, log.extra["true_altitude_m"]) - 400) <= 10
 
 
 @pytest.mark.parametrize("argv,fragment", [

@@ -15,7 +15,8 @@ def test_defaults_are_valid_and_converted_to_integer_units():
 
 
 @pytest.mark.parametrize("values,expected", [
-    ({"main_deploy_m": -5}, "main_deploy_m = -5 is out of range: allowed 10 to 5000 m AGL"),
+    ({"main_deploy_m": -5}, "main_deploy_m = -5 is out of range: allowed 0 to 5000 m AGL"),
+    ({"main_deploy_m": 5}, "main_deploy_m = 5 is out of range: allowed 0 (no main) or 10 to 5000 m AGL"),
     ({"main_deploy_m": "250"}, "main_deploy_m must be a number"),
     ({"main_deploy_m": True}, "main_deploy_m must be a number"),
     ({"main_deploy_m": float("nan")}, "main_deploy_m must be a number"),

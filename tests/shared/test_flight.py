@@ -303,3 +303,78 @@ def test_false_launch_returns_to_pad_and_a_real_flight_still_flies():
                 drogue = i
     assert BOOST in states[:len(dts)] and states[len(dts) - 1] == PAD and fc.errors & ERR_FALSE_LAUNCH
     assert drogue is not None and abs(drogue - apogee) <= 15  # 0.3 s at 50 Hz
+
+
+@pytest.mark.parametrize("first", [HAVE_ACCEL, HAVE_BARO])
+def test_pad_calibration_with_the_sensors_on_alternate_samples(first):
+    # barometer and accelerometer on alternate samples, either one first: the ground reference is
+    # the barometer's average and the 1 g reference the accelerometer's, neither diluted by the
+    # samples without a reading, and the first reading is no "pressure step"
+    dts, alts, accs, _ = pad(6, rate=100, seed=3)
+    accs = accs + 400  # an accelerometer reading 0.4 m/s^2 high on the pad
+    other = HAVE_BARO if first == HAVE_ACCEL else HAVE_ACCEL
+    have = np.where(np.arange(len(dts)) % 2 == 0, first, other)
+    fc, events, pyro = run(dts, np.where(have == HAVE_BARO, alts, 0), np.where(have == HAVE_ACCEL, accs, 0),
+                           have, **ALL_ON)
+    assert fc.errors == 0 and not events and not pyro
+    assert abs(fc.ground_alt_mm - 300000) <= 300  # 1 m noise averaged over a block
+    assert abs(fc.one_g_mmps2 - (G + 400)) <= 60
+
+
+def test_boost_time_counts_the_accelerometer_intervals():
+    # a 0.1 s boost threshold: readings every 20 ms on alternate 10 ms samples launch at the same
+    # time as readings every 20 ms on 20 ms samples (5 boosting readings), not at 10 of them
+    def launch_time_ms(step_ms, every):
+        dts, alts, accs, _ = pad(3, rate=1000 // step_ms, seed=1)
+        n_boost = int(0.3 * 1000 / step_ms)
+        dts = np.concatenate([dts, np.full(n_boost, step_ms * 1000)])
+        alts = np.concatenate([alts, np.full(n_boost, alts[-1])])
+        accs = np.concatenate([accs, np.full(n_boost, G + 60000)])
+        have = np.full(len(dts), HAVE_BOTH)
+        if every == 2:
+            have = np.where(np.arange(len(dts)) % 2 == 0, HAVE_BARO, HAVE_ACCEL)
+        _, events, _ = run(dts, alts, accs, have, **ALL_ON)
+        i = next(i for i, e in events if e & EV_LAUNCH)
+        return int(np.sum(dts[1:i + 1]) // 1000) - 3000
+    merged = launch_time_ms(20, 1)
+    assert merged == 80  # the 5th reading of the boost: 4 intervals + the first one's
+    assert abs(launch_time_ms(10, 2) - merged) <= 10
+
+
+def test_no_main_single_deployment_lands_under_the_drogue():
+    # main_deploy_m = 0: a rocket with one parachute; the main never fires, landing is detected
+    dts, alts, accs, truth, apogee = _flight(after_apogee_s=200, alt_noise_mm=800, acc_noise_mmps2=200)
+    ground = apogee + int(np.argmax(truth[apogee:] <= truth[0]))  # make_flight falls on through it
+    rest = np.random.default_rng(2).normal(0, 800, 2000).astype(np.int64)  # 20 s on the ground
+    dts = np.concatenate([dts[:ground], np.full(2000, dts[1])])
+    alts = np.concatenate([alts[:ground], truth[0] + rest])
+    accs = np.concatenate([accs[:ground], np.full(2000, G)])
+    fc, events, pyro = run(dts, alts, accs, np.full(len(dts), HAVE_BOTH), main_deploy_m=0)
+    bits = 0
+    for _, e in events:
+        bits |= e
+    assert bits & EV_DROGUE and not bits & EV_MAIN and not fc.pyro_main
+    assert fc.main_fired_ms < 0
+    assert bits & EV_LANDED and fc.state == LANDED
+
+
+def test_accelerometer_integrals_count_its_own_intervals():
+    # the accelerometer's account of the boost (proof of flight) from readings on alternate 10 ms
+    # samples equals the one from readings on every 20 ms sample: each reading stands for its own
+    # 20 ms interval, not for the 10 ms since the barometer's sample before it
+    boost_mmps2 = 5 * G  # 0.4 s of 5 g kinematic: 19.6 m/s, 3.9 m
+    def integrals(step_ms, every):
+        dts, alts, accs, _ = pad(3, rate=1000 // step_ms, seed=1)
+        n_boost = 400 // step_ms
+        dts = np.concatenate([dts, np.full(n_boost, step_ms * 1000)])
+        alts = np.concatenate([alts, np.full(n_boost, alts[-1])])
+        accs = np.concatenate([accs, np.full(n_boost, G + boost_mmps2)])
+        have = np.full(len(dts), HAVE_BOTH)
+        if every == 2:
+            have = np.where(np.arange(len(dts)) % 2 == 0, HAVE_BARO, HAVE_ACCEL)
+        fc, _, _ = run(dts, alts, accs, have)
+        return fc.acc_dv_mmps, fc.acc_h_mm
+    dv, h = integrals(20, 1)
+    assert abs(dv - boost_mmps2 * 0.4) <= boost_mmps2 * 0.02  # within one reading's 20 ms
+    dv2, h2 = integrals(10, 2)
+    assert abs(dv2 - dv) <= boost_mmps2 * 0.02 and abs(h2 - h) <= 500

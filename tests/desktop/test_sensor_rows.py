@@ -1,0 +1,157 @@
+"""Logs whose sensors sit on separate rows (docs/FLIGHT_CSV.md: an empty cell is no reading):
+each reading is used at its own time, so the layout of the rows does not change the flight.
+Layouts made from the 16 real AltOS flights and a simulated one (tests/support/row_layouts.py)."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from desktop.cli import main
+from desktop.io.flightcsv import read_flight_csv, write_flight_csv
+from desktop.review.replay import config_for, replay
+from tests.support import row_layouts
+
+DATA = Path(__file__).parents[1] / "data" / "flights" / "altos"
+REFERENCE = json.loads((DATA / "reference.json").read_text())["flights"]
+ANOMALOUS = "2012-05-28-serial-319-flight-005.csv"
+
+
+# the decision mode and health events report the arbitration's bookkeeping, not the flight
+_DIAGNOSTIC = ("health", "mode")
+
+
+def _events(log):
+    res = replay(log, config_for(log))
+    return {e.event: e for e in res.events if e.event not in _DIAGNOSTIC}, res
+
+
+def _assert_same_events(alt_log, merged_log):
+    """Every event of the merged log, in the alternating one within one merged sample period
+    (the larger of the intervals on either side of the merged event's row)."""
+    alt, _ = _events(alt_log)
+    merged, _ = _events(merged_log)
+    t = merged_log.time_s
+    for name, ev in merged.items():
+        i = ev.index
+        period = max(t[min(i + 1, len(t) - 1)] - t[i], t[i] - t[max(i - 1, 0)])
+        if name not in alt:
+            # only at the very end of the record: the alternating log may end before its turn
+            assert t[-1] - ev.time_s <= period, (name, ev.time_s)
+            continue
+        if merged_log.path.endswith(ANOMALOUS + " (merged)"):
+            # its apogee follows the barometer's re-admission after the ejection-like event (the
+            # arbitration judges it in 50 ms slots over 0.5 s windows): two slots more; the main
+            # follows it by main_guard_s (its apogee is below the main altitude)
+            period += 0.1
+        assert abs(alt[name].time_s - ev.time_s) <= period + 1e-9, (name, alt[name].time_s, ev.time_s)
+    assert set(alt) <= set(merged)
+
+
+@pytest.mark.parametrize("name", sorted(REFERENCE))
+def test_alternating_rows_give_the_events_of_the_merged_rows(name):
+    log = read_flight_csv(DATA / name)
+    _assert_same_events(row_layouts.alternating(log), row_layouts.merged_alternating(log))
+
+
+@pytest.mark.slow
+def test_alternating_rows_of_a_simulated_flight(simulated_log):
+    _assert_same_events(row_layouts.alternating(simulated_log),
+                        row_layouts.merged_alternating(simulated_log))
+
+
+@pytest.fixture(scope="module")
+def simulated_log(tmp_path_factory):
+    from desktop.io.rocket_file import load_rocket
+    from desktop.sim.sensor_models import BoardConfig, make_record, write_record
+    from desktop.sim.trajectory import simulate_rocket
+
+    spec = load_rocket("examples/rockets/j360_sport.toml")
+    traj = simulate_rocket(spec, after_main_s=10)
+    record = make_record(traj, spec.board["sensors"], seed=3, board=BoardConfig(rate_hz=100, pad_s=5))
+    path = tmp_path_factory.mktemp("sim") / "j360.csv"
+    write_record(path, record)
+    return read_flight_csv(path)
+
+
+LAYOUTS = {
+    "mixed_rate": row_layouts.mixed_rate,  # 20 Hz barometer beside a 100 Hz accelerometer
+    "bursty": row_layouts.bursty,  # the sensors in turns of up to 40 ms
+    "split_rows": row_layouts.split_rows,  # each reading on its own row, 2 ms apart
+}
+
+
+def _layout_drogue_errors(layout):
+    """Drogue - reference apogee (s) on the 14 clean flights replayed in ``layout``, after checking
+    what must hold in every layout: nothing fires on the non-flight, nothing before burnout, the
+    anomalous flight's drogue within its bounds."""
+    errors = []
+    for name, ref in REFERENCE.items():
+        log = LAYOUTS[layout](read_flight_csv(DATA / name))
+        events, _ = _events(log)
+        if ref["non_flight"]:
+            assert not {"apogee", "drogue", "main"} & set(events), name
+            continue
+        for ev in ("apogee", "drogue", "main"):
+            assert ev not in events or events[ev].index > events["burnout"].index, (name, ev)
+        if name == ANOMALOUS and layout != "split_rows":
+            # with a fifth (or half) of its barometer readings the ejection-like event at 2.0 s
+            # is seen later: drogue 0.3 s before the reference apogee (0.24 s after with all)
+            assert -0.4 <= events["drogue"].time_s - ref["apogee_time_s"] <= 1.0
+            continue
+        if name == ANOMALOUS:
+            assert -0.2 <= events["drogue"].time_s - ref["apogee_time_s"] <= 1.0
+            continue
+        errors.append(events["drogue"].time_s - ref["apogee_time_s"])
+    assert len(errors) == 14
+    return np.array(errors)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("layout", sorted(LAYOUTS))
+def test_layouts_of_the_real_flights_never_fire_early(layout):
+    # the safety side holds in every layout: no drogue more than 0.3 s before the reference
+    # apogee (measured: at most 0.25 s early, as with both readings on every row)
+    assert _layout_drogue_errors(layout).min() >= -0.30
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "a pressure transient near apogee (a motor's ejection charge, the board's own charge) excludes "
+    "the barometer; in these layouts the decision comes after it and waits for the barometer's "
+    "re-admission: max late 1.85 s (mixed_rate), 6.15 s (bursty), 0.41 s (split_rows) against "
+    "0.30 s (docs/BENCHMARKS.md, issue 'Never fooled by one sensor')"))
+@pytest.mark.parametrize("layout", sorted(LAYOUTS))
+def test_layouts_of_the_real_flights_meet_the_accuracy_goal(layout):
+    # every row with both readings (test_replay_altos): mean 0.12 s, max 0.21 s
+    errors = np.abs(_layout_drogue_errors(layout))
+    assert errors.max() <= 0.30 and errors.mean() <= 0.15
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("layout", sorted(LAYOUTS))
+def test_layouts_of_a_simulated_flight_keep_its_events(simulated_log, layout):
+    base, _ = _events(simulated_log)
+    events, _ = _events(LAYOUTS[layout](simulated_log))
+    assert set(events) == set(base)
+    for name in ("apogee", "drogue", "main"):
+        assert abs(events[name].time_s - base[name].time_s) <= 0.05, name
+    truth = simulated_log.extra["true_altitude_m"]
+    main_m = config_for(simulated_log).values["main_deploy_m"]
+    assert abs(np.interp(events["main"].time_s, simulated_log.time_s, truth) - main_m) <= 5
+
+
+def test_alternating_csv_replays_from_the_command_line(tmp_path, capsys):
+    # a real 731 m flight written with its barometer and accelerometer on alternate rows, empty
+    # cells between: it once replayed with no launch at all and 388 m of maximum altitude
+    log = row_layouts.alternating(read_flight_csv(DATA / "2012-04-07-serial-892-flight-002.csv"))
+    path = tmp_path / "alternating.csv"
+    write_flight_csv(path, {"time_s": log.time_s, "pressure_pa": log.pressure_pa,
+                            "accel_mps2": log.accel_mps2}, metadata={"main_deploy_m": 250})
+    assert main(["replay", str(path), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    names = [e["event"] for e in data["events"] if e["event"] not in _DIAGNOSTIC]
+    assert names == ["launch", "burnout", "apogee", "drogue", "main"]
+    assert abs(data["max_altitude_m"] - 731) <= 5
+    assert data["errors"] == 0
