@@ -20,7 +20,7 @@ from shared.config import ConfigError
 
 # (command name, module defining it); the module's register() adds the sub-parser.
 COMMANDS = (
-    ("montecarlo", "desktop.study.seed_study"),
+    ("montecarlo", "desktop.study.montecarlo_cli"),
     ("replay", "desktop.review.replay"),
     ("simulate", "desktop.sim.simulate"),
     ("logdecode", "desktop.io.logdecode"),

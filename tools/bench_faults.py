@@ -89,7 +89,7 @@ def trajectory(name: str, seed: int, index: int | None, cache: Path | None):
     AFTER_MAIN_S after the descent crosses the main altitude; from the cache when there."""
     from desktop.io.rocket_file import load_rocket
     from desktop.sim import trajectory as tr
-    from desktop.study import rocket_study as rm
+    from desktop.study.rocket_dispersions import apply_draw, draw_flight
 
     path = None
     if cache is not None:
@@ -98,18 +98,13 @@ def trajectory(name: str, seed: int, index: int | None, cache: Path | None):
             with open(path, "rb") as f:
                 return pickle.load(f)
     spec = load_rocket(_rocket_path(name))
-    flown = spec if index is None else rm.apply_draw(spec, rm.draw_flight(spec, seed, index))
+    flown = spec if index is None else apply_draw(spec, draw_flight(spec, seed, index))
     traj = tr.simulate_rocket(flown, after_main_s=AFTER_MAIN_S if flown.main else None)
-    nominal = (spec.motor.time_s, spec.motor.thrust_n)
-    for key in [k for k in tr._MOTOR_CACHE if k[1:3] != nominal]:
-        del tr._MOTOR_CACHE[key]
+    tr.forget_motors_except(spec.motor)
     if spec.main is None:
         traj = traj.truncated(traj.apogee_time_s + AFTER_APOGEE_S)
     else:
-        after = traj.time_s > traj.apogee_time_s
-        below = np.flatnonzero(after & (traj.altitude_m <= spec.main.deploy_altitude_m))
-        if below.size:
-            traj = traj.truncated(float(traj.time_s[below[0]]) + AFTER_MAIN_S)
+        traj = traj.ended_after_main(spec.main.deploy_altitude_m, AFTER_MAIN_S)
     traj = dataclasses.replace(traj, thrust_n=None, mass_kg=None)  # not needed: a smaller cache
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -228,7 +223,7 @@ def run_methods(rec, pres, acc, clip, board: str, backup_s: float, main_m: float
 def evaluate(task) -> list[dict]:
     """Every class, board and method on the flights of one trajectory; one dict per run."""
     from desktop.io.rocket_file import load_rocket
-    from desktop.study.rocket_study import settings_for
+    from desktop.study.rocket_flight import settings_for
 
     name, rocket_i, traj_index, flights, seed, cache, backup_s, max_mach = task
     traj = trajectory(name, seed, traj_index, cache)

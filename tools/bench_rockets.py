@@ -18,7 +18,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from desktop.study import rocket_study as rm  # noqa: E402
+from desktop.study.rocket_flight import settings_for  # noqa: E402
+from desktop.study.rocket_plots import write_plots  # noqa: E402
+from desktop.study.rocket_report import format_markdown, speed_line, summary_lines  # noqa: E402
+from desktop.study.rocket_study import run_rocket_study  # noqa: E402
 
 ROCKETS = ("c6_model", "j360_sport", "k400_dual_deploy", "k1000_min_dia", "m1670_3km")
 SUPERSONIC = ("k1000_min_dia",)
@@ -64,8 +67,8 @@ def main(argv=None) -> int:
     total = 0
     for name in args.rockets:
         path = ROOT / "examples" / "rockets" / f"{name}.toml"
-        settings = rm.settings_for(path, args.seed)
-        result = rm.run_rocket_study(settings, args.flights, workers=args.workers,
+        settings = settings_for(path, args.seed)
+        result = run_rocket_study(settings, args.flights, workers=args.workers,
                                      progress=sys.stderr.isatty())
         total += len(result.flights)
         p = result.parameters()
@@ -77,11 +80,11 @@ def main(argv=None) -> int:
               f"{max(f['true_apogee_m'] for f in result.flights):.0f} m, max Mach "
               f"{min(f['max_mach'] for f in result.flights):.2f} to "
               f"{max(f['max_mach'] for f in result.flights):.2f}\n")
-        print(rm.format_markdown(result))
+        print(format_markdown(result))
         print()
-        for line in rm.summary_lines(result):
+        for line in summary_lines(result):
             print(line)
-        print(rm.speed_line(result))
+        print(speed_line(result))
         print()
         for line in goal_lines(name, result):
             print(line)
@@ -91,7 +94,7 @@ def main(argv=None) -> int:
             out.mkdir(parents=True, exist_ok=True)
             (out / f"{name}.json").write_text(json.dumps(result.to_json(), indent=1))
         if args.plots:
-            rm.write_plots(result, args.plots)
+            write_plots(result, args.plots)
     wall = time.perf_counter() - t0
     print(f"all rockets: {total} flights in {wall:.0f} s wall ({60 * total / wall:.0f} flights/minute "
           f"including each rocket's worker start-up)")

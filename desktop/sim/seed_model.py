@@ -115,8 +115,8 @@ class FlightParams:
                             self.decay_end_ms[idx])
 
     @classmethod
-    def seed_default(cls, n: int = 1) -> FlightParams:
-        """The seed's default flight, n times."""
+    def paper_default(cls, n: int = 1) -> FlightParams:
+        """The paper's default flight, n times."""
         return cls(np.full(n, SEED_A_PEAK_MPS2), np.full(n, _ms(SEED_RISE_END_S)),
                    np.full(n, _ms(SEED_HOLD_END_S)), np.full(n, _ms(SEED_DECAY_END_S)))
 
@@ -441,7 +441,7 @@ def simulate(
     """Simulate flights ``flight_indices`` of seed ``seed``.
 
     ``params``: fixed parameters (one per flight, or a single flight's broadcast), e.g.
-    ``FlightParams.seed_default()``; None draws them from ``ranges``. ``t_length_s``: the seed's
+    ``FlightParams.paper_default()``; None draws them from ``ranges``. ``t_length_s``: the seed's
     t_length; default 15 s with fixed parameters, ``ranges.flight_length_s()`` with drawn ones.
     ``pad_s``: seconds at rest before ignition (0: the seed exactly). ``chunk`` bounds the memory of
     the 1 ms truth (chunk x N floats). ``progress``: optional callable(n_done) for a progress bar.
@@ -530,9 +530,9 @@ def simulate_monte_carlo(n_flights: int, seed: int, pad_s: float = 2.0, first: i
     return simulate(seed, np.arange(first, first + n_flights), pad_s=pad_s, **kw)
 
 
-def simulate_seed_flight(seed: int = 0, flight_index: int = 0, pad_s: float = 0.0, **kw) -> FlightBatch:
-    """The seed's default flight (15 s, 160 m/s^2, 0.05/0.35/0.5 s), one noise realisation."""
-    return simulate(seed, [flight_index], params=FlightParams.seed_default(), pad_s=pad_s, **kw)
+def simulate_paper_flight(seed: int = 0, flight_index: int = 0, pad_s: float = 0.0, **kw) -> FlightBatch:
+    """The paper's default flight (15 s, 160 m/s^2, 0.05/0.35/0.5 s), one noise realisation."""
+    return simulate(seed, [flight_index], params=FlightParams.paper_default(), pad_s=pad_s, **kw)
 
 
 def flight_csv_columns(batch: FlightBatch, r: int = 0) -> tuple[dict, dict]:

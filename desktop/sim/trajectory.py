@@ -174,6 +174,16 @@ class Trajectory:
             arrays[name] = None if a is None else a[:n]
         return replace(self, **arrays)
 
+    def ended_after_main(self, main_deploy_m: float, after_s: float) -> Trajectory:
+        """A copy ending ``after_s`` after the descent first reaches ``main_deploy_m`` (m above the
+        pad); unchanged with no main (0) or if the descent never gets that low. The rest of the
+        descent costs replay time and decides nothing."""
+        after = self.time_s > self.apogee_time_s
+        below = np.flatnonzero(after & (self.altitude_m <= main_deploy_m))
+        if not (below.size and main_deploy_m):
+            return self
+        return self.truncated(float(self.time_s[below[0]]) + after_s)
+
     def summary(self) -> str:
         parts = [f"apogee {self.apogee_m:.1f} m AGL at {self.apogee_time_s:.2f} s",
                  f"max Mach {self.max_mach:.2f}", f"max speed up {self.max_velocity_mps:.1f} m/s",
@@ -343,6 +353,14 @@ def _motor(eng: EngMotor):
                               **motor_grain_geometry(eng))
         _MOTOR_CACHE[key] = m
     return m
+
+
+def forget_motors_except(eng: EngMotor) -> None:
+    """Drop every cached RocketPy motor but the ones of ``eng``'s thrust curve: a dispersed motor
+    flies once, and keeping each would grow the cache by one motor per flight."""
+    nominal = (eng.time_s, eng.thrust_n)
+    for key in [k for k in _MOTOR_CACHE if k[1:3] != nominal]:
+        del _MOTOR_CACHE[key]
 
 
 def build_rocketpy(spec: RocketSpec, parachute_rate_hz: float = 20.0):

@@ -58,7 +58,7 @@ class _SeedFlight:
 
 def _seed_flight(random_seed: int):
     """The paper's default flight as a one-flight batch, and what the single-flight figures need."""
-    batch = sm.simulate_seed_flight(seed=random_seed, flight_index=0, pad_s=0.0)
+    batch = sm.simulate_paper_flight(seed=random_seed, flight_index=0, pad_s=0.0)
     t_ms = sm.seed_time_vector(batch.t_length_s)
     s_ms, _, _ = sm.integrate_truth(sm.acceleration_profile(batch.params, len(t_ms)))
     flight = _SeedFlight(batch.time_s, batch.altitude_m[0], t_ms[:-1], s_ms[0, :-1],

@@ -96,7 +96,7 @@ def test_montecarlo_flights_must_be_positive(capsys, flights):
 
 
 @pytest.mark.parametrize("pad", ["-1", "601", "nan"])
-@pytest.mark.parametrize("extra", [[], ["--params", "seed"], ["--rocket", "examples/rockets/c6_model.toml"]])
+@pytest.mark.parametrize("extra", [[], ["--params", "paper"], ["--rocket", "examples/rockets/c6_model.toml"]])
 def test_montecarlo_pad_out_of_range(capsys, pad, extra):
     line = one_error_line(["montecarlo", "--flights", "2", "--pad-s", pad, *extra], capsys)
     assert line == "error: --pad-s %s is out of range (allowed 0 to 600 s)" % pad

@@ -1,4 +1,5 @@
-"""``python -m desktop montecarlo`` (desktop/study/seed_study.py): the table, JSON, plots, CSV export."""
+"""``python -m desktop montecarlo`` (desktop/study/montecarlo_cli.py, the seed paper's study in
+seed_study.py): the table, JSON, plots, CSV export, the deprecated ``--params seed``."""
 
 import json
 import sys
@@ -111,9 +112,16 @@ def test_export_csv(tmp_path, capsys):
     assert log.metadata_float("true_apogee_m") == pytest.approx(fl.true_apogee_m[0])
     assert log.metadata_float("flight_index") == 3 and log.metadata_float("seed") == 4
     assert log.metadata_float("a_peak_mps2") == pytest.approx(fl.params.a_peak_mps2[0])
-    # the seed's exact default flight: no pad, 15 s
-    path = tmp_path / "seed.csv"
-    assert main(["montecarlo", "--params", "seed", "--seed", "1", "--export-csv", str(path)]) == 0
+    # the paper's exact default flight: no pad, 15 s
+    path = tmp_path / "paper.csv"
+    assert main(["montecarlo", "--params", "paper", "--seed", "1", "--export-csv", str(path)]) == 0
     log = flightcsv.read_flight_csv(path)
     assert len(log) == 300 and log.time_s[0] == 0.0
     assert log.metadata_float("true_apogee_time_s") == pytest.approx(6.9235, abs=1e-4)
+    assert log.metadata["params"] == "paper"
+    capsys.readouterr()
+    # its former name still works, with a one-line note on stderr, and writes the same flight
+    old = tmp_path / "seed.csv"
+    assert main(["montecarlo", "--params", "seed", "--seed", "1", "--export-csv", str(old)]) == 0
+    assert capsys.readouterr().err == "note: --params seed is deprecated, use --params paper\n"
+    assert old.read_bytes() == path.read_bytes()

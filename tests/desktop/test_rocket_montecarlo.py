@@ -1,4 +1,4 @@
-"""Monte-Carlo over a rocket design (desktop/study/rocket_study.py, ``montecarlo --rocket``): the
+"""Monte-Carlo over a rocket design (desktop/study/rocket_*.py, ``montecarlo --rocket``): the
 draws, determinism by seed and worker count, every method in the table and the JSON, each method's
 numbers against a direct call, the CLI and the figures. A few RocketPy flights per rocket."""
 
@@ -14,8 +14,21 @@ from desktop.io.flightcsv import read_flight_csv
 from desktop.io.rocket_file import load_rocket
 from desktop.sim.sensor_models import write_record
 from desktop.study import baselines
-from desktop.study import rocket_study as rm
 from desktop.study.metrics import METRIC_KEYS, metrics
+from desktop.study.rocket_comparison import baseline_inputs, hold_missing
+from desktop.study.rocket_dispersions import DEFAULT_DISPERSIONS, apply_draw, draw_flight
+from desktop.study.rocket_flight import (
+    METHODS,
+    evaluate_flight,
+    flight_computer_config,
+    record_log,
+    settings_for,
+    simulate_flight,
+)
+from desktop.study.rocket_plots import write_plots
+from desktop.study.rocket_report import format_markdown
+from desktop.study.rocket_results import json_ready
+from desktop.study.rocket_study import run_rocket_study
 
 pytestmark = [pytest.mark.slow,
               pytest.mark.filterwarnings("ignore::UserWarning", "ignore::DeprecationWarning")]
@@ -28,30 +41,30 @@ SEED = 11
 
 @pytest.fixture(scope="module")
 def c6_settings():
-    return rm.settings_for(C6, SEED)
+    return settings_for(C6, SEED)
 
 
 @pytest.fixture(scope="module")
 def c6_serial(c6_settings):
-    return rm.run_rocket_study(c6_settings, 3, workers=1)
+    return run_rocket_study(c6_settings, 3, workers=1)
 
 
 @pytest.fixture(scope="module")
 def c6_parallel(c6_settings):
-    return rm.run_rocket_study(c6_settings, 3, workers=2)
+    return run_rocket_study(c6_settings, 3, workers=2)
 
 
 def _without_timing(flights):
     # NaN (no main on the C6) compared as None
-    return rm._clean([{k: v for k, v in f.items() if k != "timing_s"} for f in flights])
+    return json_ready([{k: v for k, v in f.items() if k != "timing_s"} for f in flights])
 
 
 def test_draws_are_seeded_bounded_and_independent_of_the_batch():
     spec = load_rocket(ROCKETS / "k400_dual_deploy.toml")
-    d = rm.DEFAULT_DISPERSIONS
-    draws = [rm.draw_flight(spec, 3, i) for i in range(300)]
-    assert rm.draw_flight(spec, 3, 17) == draws[17]
-    assert rm.draw_flight(spec, 4, 17) != draws[17]
+    d = DEFAULT_DISPERSIONS
+    draws = [draw_flight(spec, 3, i) for i in range(300)]
+    assert draw_flight(spec, 3, 17) == draws[17]
+    assert draw_flight(spec, 4, 17) != draws[17]
     for name, half in (("impulse_scale", d.impulse), ("burn_time_scale", d.burn_time), ("cd_scale", d.cd),
                        ("dry_mass_scale", d.dry_mass)):
         x = np.array([getattr(w, name) for w in draws])
@@ -65,7 +78,7 @@ def test_draws_are_seeded_bounded_and_independent_of_the_batch():
         assert x.min() >= 0 and x.max() < 360 and np.ptp(x) > 300
     # the dispersed rocket: impulse and burn time as drawn, drag scaled point by point
     w = draws[5]
-    flown = rm.apply_draw(spec, w, 250.0)
+    flown = apply_draw(spec, w, 250.0)
     impulse = spec.motor.total_impulse_ns * w.impulse_scale
     assert flown.motor.total_impulse_ns == pytest.approx(impulse, rel=1e-9)
     assert flown.motor.burn_time_s == pytest.approx(spec.motor.burn_time_s * w.burn_time_scale, rel=1e-12)
@@ -78,20 +91,20 @@ def test_same_results_whatever_the_worker_count(c6_serial, c6_parallel, c6_setti
     assert c6_parallel.speed["workers"] == 2 and c6_serial.speed["workers"] == 1
     assert _without_timing(c6_serial.flights) == _without_timing(c6_parallel.flights)
     assert c6_serial.table == c6_parallel.table
-    assert rm._clean(c6_serial.fc_summary) == rm._clean(c6_parallel.fc_summary)
+    assert json_ready(c6_serial.fc_summary) == json_ready(c6_parallel.fc_summary)
     # and flight 2 alone is the same flight as flight 2 of the batch
-    alone = rm.evaluate_flight(c6_settings, 2)
+    alone = evaluate_flight(c6_settings, 2)
     assert _without_timing([alone]) == _without_timing(c6_serial.flights[2:3])
     # another seed, other flights
-    other = rm.evaluate_flight(rm.settings_for(C6, SEED + 1), 2)
+    other = evaluate_flight(settings_for(C6, SEED + 1), 2)
     assert other["draw"] != alone["draw"]
 
 
 def test_table_rows_are_the_metrics_of_the_flights(c6_serial):
     res = c6_serial
-    assert list(res.table) == list(rm.METHODS)
+    assert list(res.table) == list(METHODS)
     apo = np.array([f["true_apogee_s"] for f in res.flights])
-    for m in rm.METHODS:
+    for m in METHODS:
         d = np.array([f["detections"][m] for f in res.flights])
         v = np.array([f["true_velocity_at_detection"][m] for f in res.flights])
         assert res.table[m] == metrics(d, apo, v)
@@ -104,12 +117,12 @@ def test_each_method_equals_a_direct_call(c6_settings, c6_serial, tmp_path):
     from desktop.review.replay import config_for, replay
 
     got = c6_serial.flights[1]
-    _draw, traj, record = rm.simulate_flight(c6_settings, 1)
+    _draw, traj, record = simulate_flight(c6_settings, 1)
     path = tmp_path / "flight1.csv"
     write_record(path, record)
     log = read_flight_csv(path)
     # the in-memory log is the CSV round trip
-    mem = rm.record_log(record)
+    mem = record_log(record)
     np.testing.assert_array_equal(mem.time_us, log.time_us)
     np.testing.assert_array_equal(mem.time_s, log.time_s)
     np.testing.assert_array_equal(mem.pressure_pa, log.pressure_pa)
@@ -121,8 +134,8 @@ def test_each_method_equals_a_direct_call(c6_settings, c6_serial, tmp_path):
     assert res.first("main") is None and math.isnan(got["flight_computer"]["main_s"])
     assert got["true_apogee_s"] == traj.apogee_time_s
     # the comparison methods: the baselines' functions on the same record
-    t, alt, acc = rm.baseline_inputs(log)
-    t2, alt2, acc2 = rm.baseline_inputs(log, res)
+    t, alt, acc = baseline_inputs(log)
+    t2, alt2, acc2 = baseline_inputs(log, res)
     np.testing.assert_array_equal(alt, alt2)
     np.testing.assert_array_equal(acc, acc2)
     assert not np.isnan(alt).any() and not np.isnan(acc).any()
@@ -144,12 +157,12 @@ def test_each_method_equals_a_direct_call(c6_settings, c6_serial, tmp_path):
 
 def test_hold_fills_missing_readings():
     x = np.array([np.nan, 2.0, np.nan, np.nan, 5.0, np.nan])
-    np.testing.assert_array_equal(rm._hold(x), [2.0, 2.0, 2.0, 2.0, 5.0, 5.0])
+    np.testing.assert_array_equal(hold_missing(x), [2.0, 2.0, 2.0, 2.0, 5.0, 5.0])
 
 
 @pytest.mark.parametrize("name", ["j360_sport", "k400_dual_deploy", "k1000_min_dia", "m1670_3km"])
 def test_every_example_rocket_runs(name):
-    res = rm.run_rocket_study(rm.settings_for(ROCKETS / f"{name}.toml", 1), 2, workers=2)
+    res = run_rocket_study(settings_for(ROCKETS / f"{name}.toml", 1), 2, workers=2)
     # the rocket's own deployment plan (m1670: main at 400 m), never a default
     assert res.settings.main_deploy_m == load_rocket(ROCKETS / f"{name}.toml").main.deploy_altitude_m
     fc = res.table["flight-computer"]
@@ -168,21 +181,21 @@ def test_cli_table_json_and_errors(capsys, tmp_path):
     argv = ["montecarlo", "--rocket", str(C6), "--flights", "2", "--seed", str(SEED), "--workers", "1"]
     assert main(argv) == 0
     out = capsys.readouterr().out
-    for m in rm.METHODS:
+    for m in METHODS:
         assert any(line.startswith(m + " ") for line in out.splitlines()), m
     assert "mean|err| s" in out and "early>1s" in out and "fired before burnout" in out
     assert "flights/minute" in out
     assert main(argv + ["--json"]) == 0
     data = json.loads(capsys.readouterr().out)
-    assert set(data["methods"]) == set(rm.METHODS)
-    for m in rm.METHODS:
+    assert set(data["methods"]) == set(METHODS)
+    for m in METHODS:
         assert set(data["methods"][m]) == set(METRIC_KEYS)
     assert data["flight_computer"]["n_flights"] == 2 and data["parameters"]["main_deploy_m"] == 0.0
     assert data["flight_computer"]["n_main"] == 0 and "no main planned" in out
     assert data["parameters"]["dispersions"]["cd"] == 0.10 and len(data["flights"]) == 2
     assert data["speed"]["workers"] == 1 and data["speed"]["flights_per_minute"] > 0
     # the same two flights as the study's first two
-    study = rm.run_rocket_study(rm.settings_for(C6, SEED), 2, workers=1)
+    study = run_rocket_study(settings_for(C6, SEED), 2, workers=1)
     assert data["methods"]["flight-computer"]["mean_abs_error_s"] == pytest.approx(
         study.table["flight-computer"]["mean_abs_error_s"], abs=0)
     # export of one flight
@@ -199,7 +212,7 @@ def test_cli_table_json_and_errors(capsys, tmp_path):
         (["montecarlo", "--rocket", str(C6), "--main-altitude", "5"], "main_deploy_m = 5"),
         (["montecarlo", "--rocket", str(C6), "--config", str(tmp_path / "none.json")],
          "configuration file not found"),
-        (["montecarlo", "--rocket", str(C6), "--params", "seed"], "--params"),
+        (["montecarlo", "--rocket", str(C6), "--params", "paper"], "--params"),
         (["montecarlo", "--rocket", str(tmp_path / "none.toml")], "not found"),
         (["montecarlo", "--rocket", str(C6), "--sensors", "bmp999+x"], "unknown sensor profile"),
     ):
@@ -209,32 +222,32 @@ def test_cli_table_json_and_errors(capsys, tmp_path):
 
 
 def test_plots_are_written_and_markdown_table_has_every_method(c6_serial, tmp_path):
-    paths = rm.write_plots(c6_serial, tmp_path)
+    paths = write_plots(c6_serial, tmp_path)
     assert [p.name for p in paths] == ["c6_model_error_histograms.png", "c6_model_example_flight.png",
                                        "c6_model_fc_error_vs_draws.png"]
     for p in paths:
         assert p.stat().st_size > 20000
-    md = rm.format_markdown(c6_serial)
-    assert md.count("\n") == len(rm.METHODS) + 1 and "**flight-computer**" in md
+    md = format_markdown(c6_serial)
+    assert md.count("\n") == len(METHODS) + 1 and "**flight-computer**" in md
 
 
 def test_deployment_plan_the_rocket_the_configuration_and_the_flag(tmp_path):
     m1670 = ROCKETS / "m1670_3km.toml"
-    assert rm.settings_for(m1670, 1).main_deploy_m == 400.0  # the rocket file's [main]
-    assert rm.settings_for(C6, 1).main_deploy_m == 0.0  # no [main]: no main
-    s = rm.settings_for(m1670, 1, config_values={"main_deploy_m": 300, "apogee_delay_s": 1})
+    assert settings_for(m1670, 1).main_deploy_m == 400.0  # the rocket file's [main]
+    assert settings_for(C6, 1).main_deploy_m == 0.0  # no [main]: no main
+    s = settings_for(m1670, 1, config_values={"main_deploy_m": 300, "apogee_delay_s": 1})
     assert s.main_deploy_m == 300.0 and dict(s.config) == {"apogee_delay_s": 1}
-    flag_wins = rm.settings_for(m1670, 1, main_deploy_m=350, config_values={"main_deploy_m": 300})
+    flag_wins = settings_for(m1670, 1, main_deploy_m=350, config_values={"main_deploy_m": 300})
     assert flag_wins.main_deploy_m == 350
     # no main: the simulated rocket flies without it, the record says "none", the computer fires none
     spec = load_rocket(m1670)
-    draw = rm.draw_flight(spec, 1, 0)
-    assert rm.apply_draw(spec, draw, 0.0).main is None
-    assert rm.apply_draw(spec, draw, 300.0).main.deploy_altitude_m == 300.0
+    draw = draw_flight(spec, 1, 0)
+    assert apply_draw(spec, draw, 0.0).main is None
+    assert apply_draw(spec, draw, 300.0).main.deploy_altitude_m == 300.0
     # the configuration reaches the flight computer, the plan comes from the record's metadata
     record_meta = {"main_deploy_m": "none"}
     log = read_flight_csv(_tiny_csv(tmp_path, record_meta))
-    cfg = rm.flight_computer_config(log, s)
+    cfg = flight_computer_config(log, s)
     assert cfg.values["apogee_delay_s"] == 1 and cfg.values["main_deploy_m"] == 0
 
 

@@ -31,7 +31,7 @@ def analytic_apogee(a_peak, t1, t2, t3, g=-9.81):
 
 
 def test_default_flight_burnout_and_apogee():
-    fl = sm.simulate_seed_flight(seed=0)
+    fl = sm.simulate_paper_flight(seed=0)
     v_bo, t_apo, h_apo = analytic_apogee(160.0, 0.05, 0.35, 0.5)
     assert v_bo == pytest.approx(63.019, abs=1e-9)
     # DESIGN.md D7: burns out at 63.0 m/s at 0.5 s, reaches 219.7 m at 6.92 s
@@ -46,7 +46,7 @@ def test_default_flight_burnout_and_apogee():
 
 
 def test_truth_matches_the_seed_loop():
-    params = sm.FlightParams.seed_default()
+    params = sm.FlightParams.paper_default()
     acc = sm.acceleration_profile(params, 15000)
     # the profile: linspace(g, 160, 50), 160 for 300 ms, linspace(160, g, 150), then g
     assert acc[0, 0] == -9.81 and acc[0, 49] == 160.0 and acc[0, 50] == 160.0
@@ -86,7 +86,7 @@ def test_fast_truth_equals_cumsum_truth_for_drawn_flights():
 
 
 def test_seed_time_vector_and_samples():
-    fl = sm.simulate_seed_flight(seed=3)
+    fl = sm.simulate_paper_flight(seed=3)
     t = np.linspace(0, 15, 15000)
     np.testing.assert_array_equal(fl.time_s, t[::50])          # the seed's t_q = t(1:50:end)
     assert len(fl.time_s) == 300
