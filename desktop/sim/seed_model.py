@@ -1,5 +1,8 @@
 """The seed study's flight model (seed chapter 4), reproduced exactly and vectorised over flights.
 
+"The seed" is the paper this project starts from ("Digital Detection of Rocket Apogee"); the random
+seed of a batch is ``seed`` (an int), as everywhere in desktop/.
+
 The seed (``rocket_sim`` in its chapter 4) builds a 1 ms kinematic acceleration profile, integrates
 it with a constant-acceleration state-transition matrix, adds Gaussian noise to position, velocity
 and acceleration, keeps every 50th 1 ms sample and floor-quantises the amplitudes in steps of 3.
