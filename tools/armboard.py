@@ -81,7 +81,7 @@ MODULE_GLOBS = ("shared/*.py", "device/*.py", "device/drivers/*.py", "desktop/__
                 "tools/synthetic_flight.py", "tools/armboard_guest.py")
 SIL_MODULES = ("desktop/hosts/sil/__init__.py", "desktop/hosts/sil/fake_machine.py",
                "desktop/hosts/sil/fake_micropython.py", "desktop/hosts/sil/fake_time.py",
-               "desktop/hosts/sil/world.py")
+               "desktop/hosts/sil/replay_sensors.py", "desktop/hosts/sil/world.py")
 FIRMWARE_DIRS = ("shared/", "device/")  # check-tables: the flight firmware (not the test fakes)
 PACKAGE_INITS = ("tests/__init__.py",)  # namespace packages on CPython: frozen with a comment
 # An empty frozen-as-source module ends the frozen table early and a later import crashes the

@@ -225,7 +225,7 @@ def firmware_path(frames_path, workdir, samples, lock=True, replay=False):
     altitude, the state machine, pyro, log record, status) and ``after_sample()`` on the fake
     machine (desktop/hosts/sil), as the board runs them. States per sample: pressure_q4_pa, accel_mmps2,
     alt_q4, vel_q4, state, baro_errors + accel_errors. With ``replay`` the sensor readings of
-    that run are then replayed as integers (``ReplaySensors``: no bus, no
+    that run are then replayed as integers (desktop/hosts/sil/replay_sensors.py: no bus, no
     driver) through a new loop, whose counts are returned: the firmware's own cost. Call once
     per interpreter: it installs the fake ``machine``, ``time`` and ``micropython`` modules."""
     tc = _ticks
@@ -284,6 +284,8 @@ def firmware_path(frames_path, workdir, samples, lock=True, replay=False):
     if replay:
         global FAKE_BUS_TICKS
         FAKE_BUS_TICKS = array("i", ticks)
+        from desktop.hosts.sil.replay_sensors import ReplaySensors
+
         hw.sensors = ReplaySensors(pressures, accels, haves)
         loop = None  # its log buffer's block is the one the new loop's can take
         gc.collect()
@@ -301,29 +303,6 @@ def firmware_path(frames_path, workdir, samples, lock=True, replay=False):
             loop.after_sample()
             ticks[i] = td(t1, t0)
     return ticks, phases, states
-
-
-class ReplaySensors:
-    """``device.board.Sensors`` over recorded integers: no bus, no driver (allocation-free)."""
-
-    def __init__(self, pressures, accels, haves):
-        self.p = pressures
-        self.a = accels
-        self.h = haves
-        self.i = 0
-        self.pressure_q4_pa = 0
-        self.temp_cdeg = 1500
-        self.accel_mmps2 = 0
-        self.have = 0
-        self.baro_errors = 0
-        self.accel_errors = 0
-
-    def read(self):
-        i = self.i
-        self.pressure_q4_pa = self.p[i]
-        self.accel_mmps2 = self.a[i]
-        self.have = self.h[i]
-        self.i = i + 1
 
 
 def dump(name, result):

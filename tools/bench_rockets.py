@@ -5,7 +5,7 @@ rocket, the flight computer's extra rows, flights per minute, and the issue's go
     python tools/bench_rockets.py --flights 50 --workers 2 --json-dir out/bench
     python tools/bench_rockets.py --rockets k1000_min_dia c6_model
 
-The study is ``python -m desktop montecarlo --rocket ROCKET.toml`` (desktop/study/rocket_study.py and its neighbours);
+The study is ``python -m desktop montecarlo --rocket ROCKET.toml`` (desktop/study/rocket_*.py);
 docs/SIMULATION.md describes the dispersions, docs/BENCHMARKS.md holds the measured tables.
 """
 

@@ -18,31 +18,9 @@ import gc
 import sys
 
 from desktop.hosts.sil import fake_machine, fake_time
+from desktop.hosts.sil.replay_sensors import ReplaySensors
 
 _WASI = getattr(sys.implementation, "_build", "") == "wasi"
-
-
-class ReplaySensors:
-    """The ``device.board.Sensors`` interface over preloaded integers (allocation-free)."""
-
-    def __init__(self, pressures, accels, haves):
-        self.p = pressures
-        self.a = accels
-        self.h = haves
-        self.i = 0
-        self.pressure_q4_pa = 0
-        self.temp_cdeg = 1500
-        self.accel_mmps2 = 0
-        self.have = 0
-        self.baro_errors = 0
-        self.accel_errors = 0
-
-    def read(self):
-        i = self.i
-        self.pressure_q4_pa = self.p[i]
-        self.accel_mmps2 = self.a[i]
-        self.have = self.h[i]
-        self.i = i + 1
 
 
 def measure(opts):
