@@ -47,6 +47,12 @@ _DUMP_CHUNK = 256
 FAKE_BUS_TICKS = None  # firmware_path(replay=True): the counts of its run on the fake I2C bus
 
 
+def _phase(state):
+    """The benchmark's phase (PAD, BOOST, COAST, DESCENT) of a flight-computer state."""
+    return PAD if state == _FC_PAD else (BOOST if state == _FC_BOOST else (
+        COAST if state < _FC_DROGUE else DESCENT))
+
+
 def _lock():
     if micropython is not None:
         micropython.heap_lock()
@@ -94,8 +100,7 @@ def _fc_loop(fc, dts, alts, accs, ticks, phases, states):
         t1 = tc()
         ticks[i] = td(t1, t0)
         s = fc.state
-        phases[i] = PAD if s == _FC_PAD else (BOOST if s == _FC_BOOST else (
-            COAST if s < _FC_DROGUE else DESCENT))
+        phases[i] = _phase(s)
         j = 4 * i
         kf = fc.kf
         states[j] = kf.alt_q4
@@ -228,8 +233,6 @@ def firmware_path(frames_path, workdir, samples, lock=True, replay=False):
     that run are then replayed as integers (desktop/hosts/sil/replay_sensors.py: no bus, no
     driver) through a new loop, whose counts are returned: the firmware's own cost. Call once
     per interpreter: it installs the fake ``machine``, ``time`` and ``micropython`` modules."""
-    tc = _ticks
-    td = _diff
     from desktop.hosts.sil import fake_machine, fake_time
 
     fake_machine.install()
@@ -256,21 +259,10 @@ def firmware_path(frames_path, workdir, samples, lock=True, replay=False):
     s = loop.sensors
     for i in range(samples):
         fake_time.advance(period)
-        if lock:
-            _lock()
-        try:
-            t0 = tc()
-            loop.sample(period)
-            t1 = tc()
-        finally:
-            if lock:
-                _unlock()
-        loop.after_sample()
-        ticks[i] = td(t1, t0)
+        ticks[i] = _timed_sample(loop, period, lock)
         fc = loop.fc
         st = fc.state
-        phases[i] = PAD if st == _FC_PAD else (BOOST if st == _FC_BOOST else (
-            COAST if st < _FC_DROGUE else DESCENT))
+        phases[i] = _phase(st)
         j = 6 * i
         states[j] = s.pressure_q4_pa
         states[j + 1] = s.accel_mmps2
@@ -291,18 +283,24 @@ def firmware_path(frames_path, workdir, samples, lock=True, replay=False):
         gc.collect()
         loop = FlightLoop(hw, load_config({}), flightlog.LogBuffer(b["log_ram_kb"] * 1024))
         for i in range(samples):
-            if lock:
-                _lock()
-            try:
-                t0 = tc()
-                loop.sample(period)
-                t1 = tc()
-            finally:
-                if lock:
-                    _unlock()
-            loop.after_sample()
-            ticks[i] = td(t1, t0)
+            ticks[i] = _timed_sample(loop, period, lock)
     return ticks, phases, states
+
+
+def _timed_sample(loop, period, lock):
+    """Ticks of one ``loop.sample(period)`` (heap locked with ``lock``); then its safe point."""
+    tc = _ticks
+    if lock:
+        _lock()
+    try:
+        t0 = tc()
+        loop.sample(period)
+        t1 = tc()
+    finally:
+        if lock:
+            _unlock()
+    loop.after_sample()
+    return _diff(t1, t0)
 
 
 def dump(name, result):
