@@ -346,15 +346,24 @@ def log_differences(log, config):
     return t_us, differences(inputs, board, config)
 
 
-def check_log(log, config):
-    """(rows compared, at most 10 descriptions of the rows that differ) of a decoded board log."""
-    t_us, found = log_differences(log, config)
+MAX_PROBLEMS_SHOWN = 10  # rows that differ, described one a line; the rest are not listed
+
+
+def first_problems(found) -> list[str]:
+    """One line for each of the first MAX_PROBLEMS_SHOWN (row, description) of ``found``."""
     problems = []
     for row, what in found:
         problems.append(f"row {row}: {what}")
-        if len(problems) == 10:
+        if len(problems) == MAX_PROBLEMS_SHOWN:
             break
-    return len(t_us), problems
+    return problems
+
+
+def check_log(log, config):
+    """(rows compared, at most MAX_PROBLEMS_SHOWN descriptions of the rows that differ) of a
+    decoded board log."""
+    t_us, found = log_differences(log, config)
+    return len(t_us), first_problems(found)
 
 
 def register(subparsers):

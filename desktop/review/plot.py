@@ -1,18 +1,16 @@
 """Plot of a replay: altitude (raw and filtered), velocity, acceleration, state bands, firings."""
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from shared.flight import STATE_NAMES  # noqa: E402
+from desktop.figures import pyplot, save_png
+from shared.flight import STATE_NAMES
 
 _STATE_COLOURS = ("#eeeeee", "#ffd6a5", "#ffadad", "#fdffb6", "#caffbf", "#9bf6ff", "#bdb2ff")
 
 
 def plot_replay(result, log, config, path):
     """Write a PNG of ``result`` (desktop.review.replay.ReplayResult) for flight ``log`` to ``path``."""
+    plt = pyplot()
     t = result.time_s
     fig, axes = plt.subplots(3, 1, figsize=(11, 9), sharex=True)
     ax_alt, ax_vel, ax_acc = axes
@@ -52,6 +50,4 @@ def plot_replay(result, log, config, path):
         ax.legend(loc="upper right", fontsize=8)
         ax.grid(alpha=0.3)
     fig.suptitle("Replay of %s through the flight computer" % log.path)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_png(plt, fig, path, dpi=110)

@@ -233,13 +233,10 @@ def _benchmark(args) -> int:
 
 def plot_record(record, path) -> None:
     """Truth and sensor record: altitude, specific force, Mach; labelled axes with units."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    from desktop.figures import pyplot, save_png
     from desktop.sim.trajectory import isa_altitude
 
+    plt = pyplot()
     traj = record.trajectory
     c = record.columns
     t = c["time_s"]
@@ -277,6 +274,4 @@ def plot_record(record, path) -> None:
             axes[0].annotate(name, (te, axes[0].get_ylim()[1]), fontsize=7, rotation=90, va="top", ha="right")
     fig.suptitle(f"{traj.rocket}: seed {record.metadata['seed']}, apogee {traj.apogee_m:.0f} m at "
                  f"{traj.apogee_time_s:.2f} s, max Mach {traj.max_mach:.2f}", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_png(plt, fig, path, dpi=110)

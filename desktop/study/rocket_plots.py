@@ -12,18 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
+from desktop.figures import pyplot, save_png
 from desktop.study.rocket_comparison import BOXCAR_SECONDS, comparison_altitudes
 from desktop.study.rocket_flight import METHODS, evaluate_flight
 from desktop.study.rocket_results import RocketStudyResult
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def error_histograms(plt, result: RocketStudyResult, path: Path, title: str) -> Path:
@@ -45,10 +37,7 @@ def error_histograms(plt, result: RocketStudyResult, path: Path, title: str) -> 
         ax.set_xlabel("detection - true apogee (s)")
         ax.grid(alpha=0.3)
     fig.suptitle(f"Timing error per method (each panel its own scale)\n{title}", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_png(plt, fig, path, dpi=100)
 
 
 def example_flight(plt, result: RocketStudyResult, path: Path, example_index: int) -> Path:
@@ -109,10 +98,7 @@ def example_flight(plt, result: RocketStudyResult, path: Path, example_index: in
         f"{p['name']}, flight {example_index} (seed {p['seed']}): apogee {traj.apogee_m:.0f} m at "
         f"{apo:.2f} s, max Mach {traj.max_mach:.2f}, wind {dr['wind_speed_mps']:.1f} m/s, rail "
         f"{dr['inclination_deg']:.1f} deg, transonic c {ex['transonic_c']:+.3f}", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_png(plt, fig, path, dpi=100)
 
 
 def fc_error_vs_draws(plt, result: RocketStudyResult, path: Path, title: str) -> Path:
@@ -136,16 +122,13 @@ def fc_error_vs_draws(plt, result: RocketStudyResult, path: Path, title: str) ->
     for ax in axes[:, 0]:
         ax.set_ylabel("flight computer: drogue - true apogee (s)")
     fig.suptitle(f"Flight computer timing error against the flight's draws\n{title}", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_png(plt, fig, path, dpi=100)
 
 
 def write_plots(result: RocketStudyResult, out_dir, example_index: int = 0) -> list[Path]:
     """Error histograms per method, one example flight, and the flight computer's error against
     the flight's parameters; PNGs in ``out_dir``."""
-    plt = _pyplot()
+    plt = pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     p = result.parameters()

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from desktop.figures import pyplot, save_png
 from desktop.sim import seed_model as sm
 from desktop.sim.seed_model import SEED_PAPER_G0_MPS2
 from desktop.study import baselines
@@ -20,15 +21,6 @@ _ZOOM_HALF_WIDTH_S = 2.5  # the "around apogee" panel spans apogee +- this
 _ZOOM_MARGIN_M = 3.0      # altitude margin above and below the zoomed curves
 _HIST_LIMIT_S = 5.0       # histogram errors beyond +-this are clipped into the end bins
 _HIST_BINS = 60
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 @dataclass
@@ -97,10 +89,7 @@ def _finish_flight_figure(plt, fig, axes, flight: _SeedFlight, path: Path) -> Pa
         ax.grid(alpha=0.3)
     handles, labels = full.get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=9, frameon=False)
-    fig.tight_layout(rect=(0, 0.1, 1, 1))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_png(plt, fig, path, dpi=110, rect=(0, 0.1, 1, 1))
 
 
 def _raw_and_truth(ax, flight: _SeedFlight, faint_truth=False):
@@ -171,10 +160,7 @@ def figure_5_2(plt, result, path: Path) -> Path:
                  f"({p['params']}, seed {p['seed']}, pad {p['pad_s']:g} s)")
     ax.grid(alpha=0.3)
     ax.legend(loc="upper right")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_png(plt, fig, path, dpi=110)
 
 
 def error_histograms(plt, result, path: Path) -> Path:
@@ -209,15 +195,12 @@ def error_histograms(plt, result, path: Path) -> Path:
     p = result.parameters
     fig.suptitle(f"Timing error per method ({p['flights']} flights, {p['params']}, seed {p['seed']}, "
                  f"pad {p['pad_s']:g} s)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_png(plt, fig, path, dpi=100)
 
 
 def write_plots(result, out_dir, random_seed: int) -> list[Path]:
     """The paper's Figures 5.1, 5.2, 2.2-2.4 and one error histogram per method, as PNGs in out_dir."""
-    plt = _pyplot()
+    plt = pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     flight, batch = _seed_flight(random_seed)

@@ -2,7 +2,7 @@
 board's step was given, so replaying it reproduces the board's decisions sample for sample."""
 
 from desktop.io.flightcsv import read_flight_csv
-from desktop.io.logdecode import differences
+from desktop.io.logdecode import differences, first_problems
 from desktop.review.replay import config_for, ground_alt_mm, readings
 
 
@@ -13,9 +13,4 @@ def check_replay(csv_path, config_path):
     board = {name: log.extra["board_" + name] for name in ("state", "events", "flags", "alt_q4", "vel_q4",
                                                            "acc_q4")}
     found = differences(readings(log), board, config_for(log, config_path), ground_alt_mm(log))
-    problems = []
-    for row, what in found:
-        problems.append(f"row {row}: {what}")
-        if len(problems) == 10:
-            break
-    return len(log), problems
+    return len(log), first_problems(found)
