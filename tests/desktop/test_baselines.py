@@ -67,7 +67,7 @@ def test_methods_are_causal(flights):
         np.testing.assert_array_equal(method(t, alt, acc), d, err_msg=name)
 
 
-def test_filter_settings():
+def test_filters_keep_a_constant_and_boxcar_lags_half_its_window():
     x = np.full((2, 50), 7.0)
     np.testing.assert_allclose(bl.boxcar(x), 7.0)
     np.testing.assert_allclose(bl.butterworth(x, 20.0), 7.0)

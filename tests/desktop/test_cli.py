@@ -177,7 +177,7 @@ def test_simulate_out_into_a_missing_folder(tmp_path, capsys):
 # the process: --version, --help, broken pipe, console script
 
 
-def test_version(capsys):
+def test_version_prints_the_package_version(capsys):
     with pytest.raises(SystemExit) as info:
         main(["--version"])
     assert info.value.code == 0

@@ -79,7 +79,7 @@ def test_tilted_accelerometer_reads_cos_tilt_of_the_axial_force():
     assert out.pad_accel_mps2 == pytest.approx(G0 * math.cos(math.radians(30.0)))
 
 
-def test_record_faults():
+def test_record_faults_change_readings_from_their_start_instant():
     t = np.arange(-1.0, 10.0, 0.01)
     p = 100000.0 - 10.0 * np.arange(len(t))
     p[150] = math.nan  # a read error just before the freeze

@@ -268,7 +268,7 @@ def test_mangled_files_never_raise_anything_else(tmp_path):
     assert outcomes["ok"] > 10 and outcomes["error"] > 100
 
 
-def test_unreadable_file(tmp_path):
+def test_unreadable_flight_csv_is_a_one_line_input_error(tmp_path):
     p = _write(tmp_path, H + "0,1,1\n")
     p.chmod(0)
     try:
@@ -297,7 +297,7 @@ def test_metadata_float_errors(tmp_path, value):
 # Writing and round trip
 
 
-def test_round_trip(tmp_path):
+def test_written_flight_csv_reads_back_the_same_values(tmp_path):
     rng = np.random.default_rng(1)
     n = 500
     t = np.cumsum(rng.integers(1, 200000, n)) / 1e6 - 0.3
@@ -410,7 +410,7 @@ def test_written_text_format(tmp_path):
         ({"time_s": [0.0], "altitude_m": [1.0]}, {"comments": ["a\nb"]}, "newline"),
     ],
 )
-def test_writer_rejects(tmp_path, cols, kwargs, text):
+def test_writer_rejects_bad_columns_and_writes_no_file(tmp_path, cols, kwargs, text):
     path = tmp_path / "w.csv"
     with pytest.raises(ValueError, match=re.escape(text)):
         write_flight_csv(path, cols, **kwargs)

@@ -98,7 +98,7 @@ def test_plots_are_written(tmp_path, capsys):
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10000, name
 
 
-def test_export_csv(tmp_path, capsys):
+def test_export_csv_writes_the_simulated_flight_and_the_paper_flight(tmp_path, capsys):
     flightcsv = pytest.importorskip("desktop.io.flightcsv")
     path = tmp_path / "f3.csv"
     assert main(["montecarlo", "--seed", "4", "--export-csv", str(path), "--flight", "3"]) == 0

@@ -102,7 +102,7 @@ def test_sample_export_example():
 @pytest.mark.parametrize("unit,value,si", [
     ("m", 100.0, 100.0), ("ft", 100.0, 30.48), ("km", 0.1, 100.0),
 ])
-def test_length_units(tmp_path, unit, value, si):
+def test_altitude_in_m_ft_or_km_converts_to_metres(tmp_path, unit, value, si):
     p = export(tmp_path, f"Time (s),Altitude ({unit})", ["0,0", f"1,{value}", f"2,{value * 2}"])
     tr = read_openrocket(p, site_altitude_m=0.0)
     assert tr.altitude_m[1000] == pytest.approx(si, rel=1e-9)
@@ -118,7 +118,7 @@ def test_length_units(tmp_path, unit, value, si):
     ("Air pressure", "inHg", 29.92, ("pressure_pa", 29.92 * 3386.389)),
     ("Mach number", "", 0.5, ("mach", 0.5)),
 ])
-def test_column_units(tmp_path, column, unit, value, check):
+def test_velocity_pressure_and_mach_columns_convert_to_si(tmp_path, column, unit, value, check):
     rows = [f"{t},{t * 10},{value}" for t in (0, 1, 2)]
     p = export(tmp_path, f"Time (s),Altitude (m),{column} ({unit})", rows)
     tr = read_openrocket(p, site_altitude_m=0.0)
@@ -241,7 +241,7 @@ def test_malformed_export_gives_one_line_error_naming_file(tmp_path, content, fr
     assert fragment in msg and "\n" not in msg and str(p) in msg
 
 
-def test_file_errors(tmp_path):
+def test_missing_folder_or_binary_openrocket_export_is_an_input_error(tmp_path):
     with pytest.raises(InputFileError, match="OpenRocket export not found"):
         read_openrocket(tmp_path / "none.csv")
     with pytest.raises(InputFileError, match="is a directory"):
@@ -256,7 +256,7 @@ def test_file_errors(tmp_path):
 # The command
 
 
-def test_simulate_openrocket(tmp_path, capsys):
+def test_simulate_from_an_openrocket_export_writes_record_and_metadata(tmp_path, capsys):
     out = tmp_path / "f.csv"
     rc = run_cli(["simulate", "--openrocket", str(SAMPLE), "--out", str(out), "--seed", "3",
                   "--sensors", "ms5611+adxl375", "--site-altitude", "150", "--after-main-s", "2"])

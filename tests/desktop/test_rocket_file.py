@@ -60,7 +60,7 @@ def write(tmp_path, text, name="r.toml"):
     return p
 
 
-def test_examples_load():
+def test_every_example_rocket_loads_with_motor_drogue_and_board():
     names = sorted(p.name for p in ROCKETS.glob("*.toml"))
     assert names == ["c6_model.toml", "j360_sport.toml", "k1000_min_dia.toml", "k400_dual_deploy.toml",
                      "m1670_3km.toml", "m1670_min_dia.toml"]
@@ -82,7 +82,7 @@ def test_base_loads_with_defaults(tmp_path):
     assert spec.drag_points == 0.45
 
 
-def test_motor_files():
+def test_bundled_motor_files_have_their_published_impulse():
     j360 = read_eng(MOTORS / "Cesaroni_J360.eng")
     assert j360.designation == "J360SM" and j360.diameter_mm == 54
     assert j360.total_impulse_ns == pytest.approx(1016, rel=0.03)
@@ -161,7 +161,7 @@ def test_missing_section_and_key(tmp_path):
         load_rocket(write(tmp_path, BASE.replace('kind = "ogive"\n', "")))
 
 
-def test_board_section(tmp_path):
+def test_board_section_is_normalised_and_range_checked(tmp_path):
     spec = load_rocket(write(tmp_path, BASE + '\n[board]\nsensors = "MS5611+ADXL375"\nrate_hz = 50\n'))
     assert spec.board == {"sensors": "ms5611+adxl375", "rate_hz": 50.0}
     with pytest.raises(RocketFileError,
@@ -169,7 +169,7 @@ def test_board_section(tmp_path):
         load_rocket(write(tmp_path, BASE + "\n[board]\nrate_hz = 500\n"))
 
 
-def test_file_errors(tmp_path):
+def test_missing_folder_bad_toml_or_non_utf8_rocket_file_is_an_input_error(tmp_path):
     with pytest.raises(InputFileError, match="rocket file not found"):
         load_rocket(tmp_path / "nope.toml")
     with pytest.raises(InputFileError, match="is a directory"):
@@ -211,7 +211,7 @@ def test_motor_path_is_relative_to_the_toml(tmp_path):
     ("X 54 321 P 0.6 1.1 CTI\n0.1 ten\n0.2 0\n", "not two numbers"),
     ("X 54 321 P 0.6 1.1 CTI\n0.1 10 3\n0.2 0\n", "needs 'time_s thrust_N'"),
 ])
-def test_eng_errors(tmp_path, content, fragment):
+def test_malformed_eng_file_is_a_one_line_error(tmp_path, content, fragment):
     p = tmp_path / "m.eng"
     p.write_text(content, encoding="utf-8")
     with pytest.raises(RocketFileError) as err:

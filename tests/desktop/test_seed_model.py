@@ -124,7 +124,7 @@ def test_floor_quantisation_in_steps_of_three():
     assert set(np.unique(pad)) <= {0.0, -3.0}
 
 
-def test_pad_period():
+def test_pad_is_at_rest_with_a_slow_drift_before_ignition():
     fl = sm.simulate_monte_carlo(8, seed=4, pad_s=2.0, keep_unquantised=True)
     assert fl.n_pad == 40
     assert fl.ignition_time_s == pytest.approx(40 * fl.time_s[1])

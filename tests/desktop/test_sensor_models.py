@@ -45,7 +45,7 @@ def supersonic():
                               end_time_s=20.0)
 
 
-def test_profiles_parse():
+def test_sensor_profiles_parse_any_case_and_reject_unknown_parts():
     p = parse_profile("BMP390+LSM6DSO")
     assert p.name == "bmp390+lsm6dso" and p.baro is BARO_PARTS["bmp390"]
     assert parse_profile("ideal").name == "ideal+ideal"
@@ -108,7 +108,7 @@ def test_accel_noise_resolution_bias(flight, name):
 
 
 @pytest.mark.parametrize("name,clips", [("mpu6050", True), ("lsm6dso", True), ("adxl375", False)])
-def test_accel_clipping(flight, name, clips):
+def test_accel_holds_at_full_scale_only_on_parts_below_the_boost(flight, name, clips):
     part = ACCEL_PARTS[name]
     rec = make_record(flight, f"ideal+{name}", seed=4, board=QUIET)
     a = rec.accel_mps2
@@ -149,7 +149,7 @@ def test_accel_bandwidth_lag(flight):
     assert np.all(np.abs(a[(t > 1.1) & (t < 2.0)]) < 1.0)
 
 
-def test_transonic_window():
+def test_transonic_window_is_one_from_mach_1_to_1_2_and_zero_outside_0_9_to_1_3():
     m = np.linspace(0, 2, 2001)
     w = transonic_window(m)
     assert np.all(w[m <= 0.9] == 0) and np.all(w[m >= 1.3] == 0)
@@ -209,7 +209,7 @@ def test_record_sample_rate_follows_board_rate_and_out_of_range_refused(flight, 
         make_record(flight, "ideal", board=BoardConfig(rate_hz=200.0))
 
 
-def test_determinism(flight):
+def test_same_seed_gives_the_same_record_another_seed_another(flight):
     a = make_record(flight, "bmp388+adxl375", seed=42)
     b = make_record(flight, "bmp388+adxl375", seed=42)
     c = make_record(flight, "bmp388+adxl375", seed=43)
@@ -219,7 +219,7 @@ def test_determinism(flight):
     assert len(a.time_s) != len(c.time_s) or not np.array_equal(a.pressure_pa, c.pressure_pa, equal_nan=True)
 
 
-def test_written_csv(tmp_path, flight):
+def test_written_record_reads_back_with_its_columns_and_metadata(tmp_path, flight):
     rec = make_record(flight, "bmp390+lsm6dso", seed=12,
                       board=BoardConfig(pad_s=10.0, read_error_probability=0.01))
     path = tmp_path / "f.csv"

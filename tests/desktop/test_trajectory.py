@@ -213,7 +213,7 @@ def test_events_and_consistency(j360):
     ("m1670_3km", 2600, 3400, None),
     pytest.param("m1670_min_dia", 7000, 10000, "mach2", marks=pytest.mark.slow),
 ])
-def test_example_rockets(name, lo, hi, check):
+def test_example_rockets_reach_their_expected_apogee_and_mach(name, lo, hi, check):
     tr = simulate_rocket(load_rocket(ROCKETS / f"{name}.toml"), after_main_s=1.0)
     assert lo < tr.apogee_m < hi, tr.summary()
     if check == "clips16g":
@@ -246,7 +246,7 @@ def test_part_profiles_configure_rocketpy_sensors():
 # The command
 
 
-def test_simulate_command(tmp_path, capsys):
+def test_simulate_command_writes_the_record_its_metadata_and_plot(tmp_path, capsys):
     out = tmp_path / "f.csv"
     png = tmp_path / "f.png"
     rc = run_cli(["simulate", str(ROCKETS / "c6_model.toml"), "--out", str(out), "--seed", "4",

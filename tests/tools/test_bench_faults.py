@@ -153,7 +153,7 @@ def test_transonic_error_on_the_way_down(supersonic, eps):
 
 @pytest.mark.parametrize("dh_m, hold", [
     (-300.0, True), (300.0, True), (-300.0, False)])
-def test_transient_at_burnout(subsonic, dh_m, hold):
+def test_pressure_transient_at_burnout_leaves_the_drogue_within_0_1_s_of_apogee(subsonic, dh_m, hold):
     start = subsonic.burnout_time_s + 0.1
     drogue, _ = run(subsonic, fault("transient_burnout", dh_m=dh_m, start_s=start, rise_s=0.1, decay_s=3.0,
                                     hold_until_s=subsonic.apogee_time_s if hold else None))
@@ -244,7 +244,7 @@ def test_unknown_rocket_is_a_one_line_error(capsys):
     assert err.startswith("error: unknown rocket 'saturn_v'") and err.count("\n") == 1
 
 
-def test_summarize_reads_rows(tmp_path, capsys):
+def test_summarize_counts_early_and_missed_drogues_per_class_and_method(tmp_path, capsys):
     rows = tmp_path / "rows.jsonl"
     base = {"rocket": "c6_model", "board": "both", "flight": 0, "trajectory": 0, "true_apogee_s": 8.0,
             "main_set_m": None, "fault": {}, "drogue_s": 7.0, "main_s": None, "speed_at_drogue_mps": 9.5,

@@ -31,7 +31,7 @@ def declared_requirements():
     return [Requirement(text) for text in project["dependencies"] + project["optional-dependencies"]["dev"]]
 
 
-def test_the_lock_parses():
+def test_every_pinned_line_of_the_lock_is_parsed():
     pins = locked_pins()
     assert len(pins) >= len(declared_requirements())
     # every "name==" line of the lock was understood
