@@ -45,6 +45,10 @@ _ACC_LIMIT = const(0xFFFFF)  # 2**20 - 1 mm/s^2 (107 g): keeps acc x dt_ms (<= 1
 _DT_LIMIT_MS = const(1000)
 _SLOT_STEP_LIMIT_MM = const(0xFFFFF)  # 2**20 - 1 mm (1 km) from the previous slot: sums in 31 bits
 _VEL_LIMIT_MMPS = const(0x3FFFFF)  # 2**22 - 1 mm/s (4 km/s)
+# the dead-reckoned velocity's bias term: |bias| < 2**15 mm/s^2 (3.3 g, beyond any bias limit the
+# configuration allows) times at most 300 s in centiseconds stays inside 31 bits
+_DR_BIAS_LIMIT = const(0x7FFF)
+_DR_LIMIT_CS = const(30000)
 
 
 def _clamp(x, limit):
@@ -71,18 +75,21 @@ class Arbitration:
         self.anchor_filter_mmps = 0  # see set_anchor
         self.anchor_track_mmps = 0
         self.anchor_margin_mmps = 0
+        self.anchor_ms = 0
+        self.anchor_bias_mmps2 = 0
         self.anchored = False  # an anchor is set and the barometer has not agreed since
         self.baro_consistent = True
         self.baro_rate_mmps = 0  # last windowed barometric climb rate
         self._agree_ms = 0  # when the current run of agreeing windows began (-1: none)
         # history of slots: barometric altitude mean (mm), middle time (ms), no barometric reading
         # (0/1), and at the slot's end the track's velocity, the filter's velocity and the
-        # track's margin (mm/s)
+        # track's margin (mm/s), and the filter's accelerometer bias (mm/s^2)
         self._alt = array("i", [0] * _HISTORY_SLOTS)
         self._vel = array("i", [0] * _HISTORY_SLOTS)
         self._t = array("i", [0] * _HISTORY_SLOTS)
         self._empty = array("b", [0] * _HISTORY_SLOTS)
         self._fvel = array("i", [0] * _HISTORY_SLOTS)
+        self._fbias = array("i", [0] * _HISTORY_SLOTS)
         self._margin = array("i", [0] * _HISTORY_SLOTS)
         self._slots = 0  # slots filled (saturates at _HISTORY_SLOTS)
         self._head = 0  # index of the newest slot
@@ -150,7 +157,7 @@ class Arbitration:
         """The highest vertical velocity the accelerometer allows."""
         return self.vel_mmps + self.margin_mmps
 
-    def add_baro(self, now_ms, alt_mm, fresh, filter_vel_mmps):
+    def add_baro(self, now_ms, alt_mm, fresh, filter_vel_mmps, filter_bias_mmps2):
         """Average a barometric reading (``fresh``) into the current slot; when the slot is full,
         record it in the history (with the track's velocity, the filter's and the margin at its
         end: half a slot later than the readings' mean, 1 m/s at 4 g) and judge the barometer
@@ -181,6 +188,7 @@ class Arbitration:
         self._vel[head] = self.vel_mmps
         self._t[head] = (self._slot_start_ms + now_ms) >> 1
         self._fvel[head] = filter_vel_mmps
+        self._fbias[head] = _clamp(filter_bias_mmps2, _DR_BIAS_LIMIT)
         self._margin[head] = self.margin_mmps
         self._alt_ref = alt
         self._alt_sum = self._alt_n = 0
@@ -231,7 +239,8 @@ class Arbitration:
     def set_anchor(self):
         """The barometer is no longer usable: anchor the accelerometer-only velocity at the
         oldest slot of the history (before a frozen run, a loss or a transient was detected):
-        the filter's velocity then, and the track's velocity and margin then."""
+        the filter's velocity then, the track's velocity and margin then, and the filter's
+        estimate of the accelerometer's bias then (mm/s^2: before the fault could corrupt it)."""
         i = self._head + 1 if self._slots == _HISTORY_SLOTS else self._head - self._slots + 1
         if i >= _HISTORY_SLOTS:
             i -= _HISTORY_SLOTS
@@ -240,7 +249,19 @@ class Arbitration:
         self.anchor_filter_mmps = self._fvel[i]
         self.anchor_track_mmps = self._vel[i]
         self.anchor_margin_mmps = self._margin[i]
+        self.anchor_ms = self._t[i]
+        self.anchor_bias_mmps2 = self._fbias[i]
         self.anchored = True
+
+    def dead_reckoned_mmps(self, now_ms):
+        """The filter's velocity at the anchor carried forward by the accelerometer alone: the
+        track's change since, less the bias the filter had estimated then (its best account of the
+        accelerometer's error, far tighter in practice than the worst-case margin)."""
+        dt_cs = (now_ms - self.anchor_ms) // 10  # centiseconds: bias x time stays in 31 bits
+        if dt_cs > _DR_LIMIT_CS:
+            dt_cs = _DR_LIMIT_CS
+        return (self.anchor_filter_mmps + self.vel_mmps - self.anchor_track_mmps
+                - self.anchor_bias_mmps2 * dt_cs // 100)
 
     def anchored_upper_mmps(self):
         """Highest vertical velocity: the filter's at the anchor plus the track's change since,

@@ -74,6 +74,8 @@ SCHEMA = {
         "no apogee while the accelerometer's lowest possible vertical velocity exceeds this"),
     "baro_consistency_mps": (50, 10, 500, "m/s",
         "barometric climb rate outside the accelerometer's velocity bounds by more than this is not motion"),
+    "dead_reckoning_guard_mps": (0, 0, 50, "m/s",
+        "after the barometer was left out in coast: no apogee while the accelerometer's velocity carried on from the filter's before the fault exceeds this"),
     "baro_stuck_s": (1.0, 0.2, 10, "s", "identical barometer readings for this long in flight: frozen"),
     "accel_stuck_s": (0.5, 0.1, 10, "s",
         "identical accelerometer readings for this long while above 1 g (noise expected): frozen"),
@@ -140,6 +142,7 @@ class Config:
         self.tilt_loss_1024 = int(round((1 / math.cos(math.radians(v["accel_tilt_max_deg"])) - 1) * 1024))
         self.apogee_guard_mmps = int(v["apogee_guard_mps"] * 1000)
         self.baro_consistency_mmps = int(v["baro_consistency_mps"] * 1000)
+        self.dead_reckoning_guard_mmps = int(v["dead_reckoning_guard_mps"] * 1000)
         self.baro_stuck_ms = int(v["baro_stuck_s"] * 1000)
         self.accel_stuck_ms = int(v["accel_stuck_s"] * 1000)
         self.baro_rate_max_mmps = int(v["baro_rate_max_mps"] * 1000)

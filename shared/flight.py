@@ -48,7 +48,9 @@ Transitions (``_transition``), each branch opening with its rule:
 
 Apogee itself is declared by the filter's rule only while ``_apogee_enabled()``: coast, proven,
 above the proof climb, after the lockout, an averaged deceleration between ``coast_decel_mps2``
-and 10 g, and the accelerometer's lowest possible velocity at or below ``apogee_guard_mps``.
+and 10 g, the accelerometer's lowest possible velocity at or below ``apogee_guard_mps``, and,
+once the barometer was left out in coast, the accelerometer's velocity dead-reckoned from the
+filter's before the fault at or below ``dead_reckoning_guard_mps``.
 Without a usable barometer (``mode`` accel only) apogee is the accelerometer's highest possible
 velocity reaching zero (``_accel_only_apogee``). The decision mode and the barometer's
 exclusion come from ``_arbitrate`` (docs/DESIGN.md D16).
@@ -213,6 +215,9 @@ class FlightComputer:
         self._arb_ms = 0  # now_ms the track was last brought up to date (see _arbitrate)
         self._baro_coast_ms = 0  # how long the barometer has been in use in coast, without a break
         self._filter_anchored = False  # the barometer was in use long enough before it was lost
+        # the barometer was left out in coast after correcting the filter long enough: until
+        # apogee the accelerometer's dead-reckoned velocity guards it (_apogee_enabled)
+        self._dead_reckoning = False
         self.pad = PadCalibration(config, ground_alt_mm)
         self.state = PAD
         self.events = 0
@@ -439,6 +444,8 @@ class FlightComputer:
                 and self.now_ms - self.launch_ms >= cfg.apogee_lockout_ms
                 and self.agl_mm >= cfg.proof_climb_mm
                 and not (self.arb.valid and self.arb.lower_mmps() > cfg.apogee_guard_mmps)
+                and not (self._dead_reckoning and self.arb.valid
+                         and self.arb.dead_reckoned_mmps(self.now_ms) > cfg.dead_reckoning_guard_mmps)
                 and cfg.coast_decel_mmps2 << 4 <= -self.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
                 and (self.coast_measured or not self.health.accel_ok))
 
@@ -729,7 +736,7 @@ class FlightComputer:
             self._arb_ms = self.now_ms
             arb.integrate_missing(dt_ms)  # no usable reading for that long: unknown by 1 g x dt
         if cfg.has_baro:
-            arb.add_baro(self.now_ms, alt_mm, have & HAVE_BARO, self.kf.vel_q4 >> 4)
+            arb.add_baro(self.now_ms, alt_mm, have & HAVE_BARO, self.kf.vel_q4 >> 4, self.kf.bias_q4 >> 4)
         mode = 0
         if cfg.has_baro and not flags & HEALTH_BARO_BAD:
             mode = MODE_BARO
@@ -744,6 +751,8 @@ class FlightComputer:
             if self.mode & MODE_BARO and not mode & MODE_BARO:
                 arb.set_anchor()
                 self._filter_anchored = self._baro_coast_ms >= _ANCHORED_MS
+                # the guard of _apogee_enabled: only an anchor whose bias the filter had learnt
+                self._dead_reckoning = self._dead_reckoning or self._filter_anchored
                 self._baro_coast_ms = 0
             elif mode & MODE_BARO and not self.mode & MODE_BARO:
                 self._reanchor = True

@@ -26,6 +26,7 @@ ROOT = Path(__file__).resolve().parent.parent
 FLIGHT = "shared/flight.py"
 HEALTH = "shared/health.py"
 PADCAL = "shared/padcal.py"
+ARB = "shared/arbitration.py"
 PAD_TESTS = "tests/shared/test_pad_launch_proof.py"
 FLIGHT_TESTS = "tests/shared/test_flight.py"
 ARB_TESTS = "tests/shared/test_arbitration.py"
@@ -184,6 +185,14 @@ MUTANTS = [
      "and not (self.arb.valid and self.arb.lower_mmps() > cfg.apogee_guard_mmps)\n",
      "\n",
      ARB_TESTS + "::test_transonic_static_port_error_does_not_fire_early"),
+    ("arb-dead-reckoning-guard", FLIGHT,
+     "and self.arb.dead_reckoned_mmps(self.now_ms) > cfg.dead_reckoning_guard_mmps)",
+     "and False)",
+     ARB_TESTS + "::test_dead_reckoning_guard_is_needed"),
+    ("arb-anchor-bias-before-fault", ARB,
+     "self.anchor_bias_mmps2 = self._fbias[i]",
+     "self.anchor_bias_mmps2 = self._fbias[self._head]",
+     ARB_TESTS + "::test_dead_reckoning_starts_from_the_filter_before_the_fault"),
     ("arb-baro-consistency", FLIGHT,
      "self.baro_excluded = coasting and mode == MODE_BOTH and not arb.baro_consistent",
      "self.baro_excluded = False",

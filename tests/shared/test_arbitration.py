@@ -219,6 +219,35 @@ def test_each_rule_is_needed(monkeypatch, removed, fl_args, early_without):
     assert run(fl, **config).early_s > early_without
 
 
+def test_dead_reckoning_starts_from_the_filter_before_the_fault():
+    # the anchor is the oldest slot of the history, before the fault was detected: its velocity
+    # and its bias estimate, not those of the filter that the fault has since corrupted
+    arb = Arbitration(load_config({}))
+    arb.start(0)
+    for k in range(40):  # 40 slots of 50 ms; a transient corrupts the filter from slot 30 on
+        faulted = k >= 30
+        arb.add_baro(50 * (k + 1), 1000 * k, True, -70000 if faulted else 20000,
+                     -900 if faulted else 250)
+    arb.set_anchor()
+    assert arb.anchor_filter_mmps == 20000 and arb.anchor_bias_mmps2 == 250
+    # 10 s on: the track unchanged (velocity 0), the bias estimate (the accelerometer reads
+    # 0.25 m/s^2 high) carried as -2.5 m/s
+    assert arb.dead_reckoned_mmps(arb.anchor_ms + 10000) == 20000 - 2500
+
+
+@pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH14_ROCKET])
+def test_dead_reckoning_guard_is_needed(monkeypatch, rocket):
+    # +300 m that decays over 3 s, 6 s before apogee: the consistency test re-admits the barometer
+    # while it still lies by tens of m/s of descent, and the filter follows it
+    base = flight(rocket)
+    fl = flight(rocket, Faults(transient_at_s=base.apogee_s - 6.0, transient_m=300.0,
+                               transient_rise_s=0.1, transient_decay_s=3.0))
+    config = {"backup_drogue_s": round(fl.apogee_s + 3)}
+    assert abs(run(fl, **config).early_s) <= 0.1  # measured: 0.01 s early, 0.05 s early
+    monkeypatch.setattr(Arbitration, "dead_reckoned_mmps", lambda self, now_ms: -10 ** 9)
+    assert run(fl, **config).early_s > 1.0  # measured: 1.55 s, 1.50 s
+
+
 def test_mode_reports_the_sensors_in_use():
     fl = flight(SUBSONIC_ROCKET, Faults(baro_lost_at_s=SUBSONIC_ROCKET.burn_s + 5))
     out = run(fl, backup_drogue_s=round(fl.apogee_s + 3))
