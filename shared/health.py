@@ -49,6 +49,10 @@ _AGE_LIMIT_MS = 0x3FFFFFFF  # ages saturate here (days), inside 31 bits
 _SPIKE_ALLOW_MM = const(50000)
 _RATE_DT_MAX_MS = const(200)
 _ONE_G_MMPS2 = const(9807)
+# An accelerometer reading held this long at the flight's largest is clipped (see watch): five
+# samples at 100 Hz, where a reading that only ties by chance (noise of a least significant bit
+# or more) changes within two or three.
+_CLIP_HOLD_MS = const(50)
 
 
 class SensorHealth:
@@ -103,6 +107,7 @@ class SensorHealth:
         self._acc_seen = False
         self._acc_run_ms = 0
         self._acc_peak = 0  # the largest accelerometer reading in flight (mm/s^2)
+        self._acc_change_ms = 0  # when the accelerometer's reading last changed
 
     def watch(self, now_ms, alt_mm, accel_mmps2, have, in_flight):
         """Judge each sensor over time; returns ``have`` without the readings not to be used.
@@ -134,15 +139,20 @@ class SensorHealth:
                 size = accel_mmps2 if accel_mmps2 >= 0 else -accel_mmps2
                 if in_flight and size > self._acc_peak:
                     self._acc_peak = size
-                if (in_flight and accel_mmps2 == self._acc_last and size >= self._acc_peak
-                        and size > _ONE_G_MMPS2):
+                held = accel_mmps2 == self._acc_last and self._acc_seen
+                if not held:
+                    self._acc_change_ms = now_ms
+                if in_flight and held and size >= self._acc_peak and size > _ONE_G_MMPS2:
                     # held at the largest reading of the flight: the part's full scale, whatever
-                    # the configured range (an unknown range, or a part that clips early)
-                    have &= HAVE_BARO
-                    self.accel_clipped += 1
-                    self.clipped = True
+                    # the configured range (an unknown range, or a part that clips early), once
+                    # held _CLIP_HOLD_MS (two equal readings at a noisy peak are chance); never
+                    # frozen
+                    if now_ms - self._acc_change_ms >= _CLIP_HOLD_MS:
+                        have &= HAVE_BARO
+                        self.accel_clipped += 1
+                        self.clipped = True
                     self._acc_run_ms = now_ms
-                elif accel_mmps2 != self._acc_last or not self._acc_seen or size < _ONE_G_MMPS2:
+                elif not held or size < _ONE_G_MMPS2:
                     self._acc_run_ms = now_ms
                 self._acc_last = accel_mmps2
                 self._acc_seen = True

@@ -17,7 +17,8 @@ import shared.flight as flight_module
 from shared.arbitration import Arbitration
 from shared.config import load_config
 from shared.flight import EV_HEALTH, EV_MODE, MODE_ACCEL, MODE_BARO
-from shared.health import HEALTH_ACCEL_STUCK, HEALTH_BARO_LOST, HEALTH_BARO_STUCK
+from shared.detector import HAVE_BOTH
+from shared.health import HEALTH_ACCEL_STUCK, HEALTH_BARO_LOST, HEALTH_BARO_STUCK, SensorHealth
 from tests.support.fault_flight import MACH_ROCKET, SUBSONIC_ROCKET, Faults, Rocket, fly, run
 
 MACH14_ROCKET = Rocket(thrust_n=480.0, burn_s=1.8, prop_kg=0.3)  # about Mach 1.65
@@ -273,6 +274,25 @@ def test_real_logs_hold_values_without_a_frozen_flag():
         res = replay(log, config_for(log))
         faults = [e for e in res.events if e.event == "health"]
         assert not faults, (path.name, [(e.time_s, e.detail) for e in faults])
+
+
+@pytest.mark.parametrize("held_samples, clipped", [(2, False), (4, False), (6, True), (60, True)])
+def test_a_reading_held_at_the_flights_peak_is_clipped_only_when_held(held_samples, clipped):
+    # 100 Hz, in flight: a noisy boost rising to 150 m/s^2, then one reading repeated. Two or
+    # four equal readings at the peak are chance (the part's noise ties them); five samples
+    # (50 ms) and more are the part's full scale. Before that rule the first tie marked the
+    # accelerometer clipped for the rest of the flight, which voids the upper velocity bound
+    # that the barometer's consistency test needs.
+    config = load_config({})
+    health = SensorHealth(config)
+    health.start_watch(config)
+    readings = [140000 + 1000 * k for k in range(10)] + [150000] * held_samples + [149000]
+    seen = False
+    for i, acc in enumerate(readings):
+        have = health.watch(10 * i, 100000 + 500 * i, acc, health.judge(0, acc, HAVE_BOTH), True)
+        seen = seen or health.clipped
+    assert seen == clipped
+    assert not health.flags & HEALTH_ACCEL_STUCK
 
 
 def test_accelerometer_frozen_flags_health():
