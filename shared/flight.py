@@ -46,14 +46,15 @@ Transitions (``_transition``), each branch opening with its rule:
 | main | landed | altitude within a band over a window | `landed_alt_m` |
 | drogue | landed | the same, when there is no main (main_deploy_m 0) | `landed_alt_m` |
 
-Apogee itself is declared by the filter's rule only while ``_apogee_enabled()``: coast, proven,
+Apogee itself is declared by the filter's rule only while the barometer is in use (``mode``)
+and ``_apogee_enabled()``: coast, proven,
 above the proof climb, after the lockout, an averaged deceleration between ``coast_decel_mps2``
 and 10 g, the accelerometer's lowest possible velocity at or below ``apogee_guard_mps``, and,
 once the barometer was left out in coast, the accelerometer's velocity dead-reckoned from the
 filter's before the fault at or below ``dead_reckoning_guard_mps``.
 Without a usable barometer (``mode`` accel only) apogee is the accelerometer's highest possible
-velocity reaching zero (``_accel_only_apogee``). The decision mode and the barometer's
-exclusion come from ``_arbitrate`` (docs/DESIGN.md D16).
+velocity reaching zero (``_accel_only_apogee``); with no usable sensor, only the backup timer.
+The decision mode and the barometer's exclusion come from ``_arbitrate`` (docs/DESIGN.md D16).
 
 Safety (docs/DESIGN.md D1): every firing path (apogee, apogee delay, backup timer,
 main) requires ``flight_proven``: a boost sustained for ``launch_accel_time_s`` *and* a climb of
@@ -372,7 +373,10 @@ class FlightComputer:
                 # the reading shows the altitude of baro_lag_ms ago: h(t) ~ h(t - lag) + v lag
                 # (velocity in cm/s so that the product stays in 31 bits)
                 alt_mm += (self.vel_mmps // 10) * cfg.baro_lag_ms // 100
-            apogee = self.det.step(dt_us, alt_mm, acc_kin, have, enabled and not accel_only)
+            # the filter decides only while the barometer is in use: with no usable sensor
+            # (mode 0: a barometer-only board whose barometer froze or died) its velocity is a
+            # prediction that no reading supports, and only the backup timer may fire
+            apogee = self.det.step(dt_us, alt_mm, acc_kin, have, enabled and self.mode & MODE_BARO)
             if accel_only and enabled:
                 apogee = self._accel_only_apogee()
         else:

@@ -249,6 +249,17 @@ def test_dead_reckoning_guard_is_needed(monkeypatch, rocket):
     assert run(fl, **config).early_s > 1.0  # measured: 1.55 s, 1.50 s
 
 
+@pytest.mark.parametrize("fault", ["baro_frozen_at_s", "baro_lost_at_s"])
+def test_no_sensor_left_only_the_backup_timer_fires(fault):
+    # a barometer-only board whose barometer freezes or dies 8 s before apogee: no reading
+    # supports the filter's velocity any more (it fired 4.7 to 4.9 s early on that prediction)
+    base = flight(SUBSONIC_ROCKET)
+    fl = flight(SUBSONIC_ROCKET, Faults(**{fault: base.apogee_s - 8.0}))
+    backup_s = round(fl.apogee_s + 3)
+    out = run(fl, "baro", backup_drogue_s=backup_s)
+    assert out.drogue_s is not None and out.drogue_s >= backup_s
+
+
 def test_mode_reports_the_sensors_in_use():
     fl = flight(SUBSONIC_ROCKET, Faults(baro_lost_at_s=SUBSONIC_ROCKET.burn_s + 5))
     out = run(fl, backup_drogue_s=round(fl.apogee_s + 3))

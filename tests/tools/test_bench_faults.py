@@ -120,8 +120,6 @@ XFAIL_TRANSIENT = pytest.mark.xfail(strict=True, reason=(
     "false climb), +300 m 0.29 s early (the dead-reckoning guard holds it back from 1.4 s early)"))
 XFAIL_BARO_ONLY_TRANSIENT = pytest.mark.xfail(strict=True, reason=(
     "a barometer-only board has no second sensor to tell a slowly decaying transient from motion"))
-XFAIL_BARO_ONLY_FROZEN = pytest.mark.xfail(strict=True, reason=(
-    "a barometer-only board has no second sensor to tell a frozen barometer from apogee"))
 
 
 # --- both sensors -------------------------------------------------------------------------------
@@ -239,7 +237,6 @@ def test_baro_only_transient_in_mid_coast_never_fires_early(subsonic, dh_m, deca
     assert_not_early(subsonic, drogue)
 
 
-@XFAIL_BARO_ONLY_FROZEN
 def test_baro_only_frozen_barometer_never_fires_early(subsonic):
     drogue, _ = run(subsonic, fault("baro_frozen", phase="coast", start_s=subsonic.burnout_time_s + 2.0),
                     board="baro")
