@@ -5,6 +5,7 @@ a Cortex-M0 (ARMv6-M, the RP2040's instruction set) or a Cortex-M3, run under
     python tools/armboard.py build [--board m0|m3|all] [--form FORM|all]
     python tools/armboard.py run SCRIPT.py [--board m0] [--form frozen]   # prints the guest's output
     python tools/armboard.py bench [--board m0,m3] [--form all] [--json OUT.json]
+    python tools/armboard.py bench --board m0 --form frozen --locked-only --items "full step" --profile
     python tools/armboard.py check-tables     # no constant tuple holds an int outside +-8191
 
 Forms (how the project's modules reach the board):
@@ -590,9 +591,60 @@ def firmware_files(workdir, scenario):
     return {"sil/" + n: (Path(workdir) / n).read_bytes() for n in ("board.json", "config.json", "frames.bin")}
 
 
-def bench_form(board, form, micropython=None, unlocked=True):
-    """Instruction counts of every BENCH_ITEMS entry, and of the firmware's sample(), on one board
-    and form."""
+def parse_profile(out, overhead, scale):
+    """The per-function breakdown of a tools.armboard_guest.dump_profile() output: {label: {"calls",
+    "incl", "self" (instructions per sample, means over the flight), "self_worst" (the worst
+    sample's), "phases": {phase: self mean}}}, in the guest's order, the step last."""
+    labels = None
+    for line in out.splitlines():
+        if line.startswith("profile labels: "):
+            labels = line[len("profile labels: "):].split()
+    if labels is None:
+        raise ArmError("no profile in the guest's output: %r" % out[-300:])
+    k = len(labels)
+    incl, self_t, calls = (parse_ints(out, "profile " + part) for part in ("incl", "self", "calls"))
+    worst = parse_ints(out, "profile worst")
+    phases = parse_ints(out, "profile phases")
+    n = len(phases)
+    counts = [phases.count(p) for p in range(len(PHASES))]
+    res = {}
+    for j, label in enumerate(labels):
+        step = j == k - 1  # the step's ticks include the loop's readings
+        ovh = overhead if step else 0
+        tot = [sum(a[p * k + j] for p in range(len(PHASES))) for a in (incl, self_t, calls)]
+        res[label] = {
+            "calls": tot[2] / n,
+            "incl": (tot[0] - ovh * n) * scale / n,
+            "self": (tot[1] - ovh * n) * scale / n,
+            "self_worst": (worst[j] - ovh) * scale,
+            "phases": {name: (self_t[p * k + j] - ovh * counts[p]) * scale / counts[p]
+                       for p, name in enumerate(PHASES) if counts[p]},
+        }
+    return res
+
+
+def print_profile(profile, unprofiled_mean=None):
+    """The breakdown table, by self time (instructions per sample, thousands)."""
+    print("  per-function breakdown of the full step (instructions per sample, thousands; self = "
+          "without the functions listed; calls per sample)")
+    print("  %-36s %7s %7s %7s %7s %7s %7s %7s %7s" % ("function", "calls", "self", "incl", "worst",
+                                                     *PHASES))
+    rows = sorted(profile.items(), key=lambda kv: -kv[1]["self"])
+    for label, r in rows:
+        if not r["calls"]:
+            continue
+        print("  %-36s %7.2f %7.1f %7.1f %7.1f %s" % (
+            label, r["calls"], r["self"] / 1000, r["incl"] / 1000, r["self_worst"] / 1000,
+            " ".join("%7.1f" % (r["phases"].get(p, 0) / 1000) for p in PHASES)))
+    total = sum(r["self"] for r in profile.values())
+    print("  %-36s %7s %7.1f%s" % ("sum of self", "", total / 1000, "" if unprofiled_mean is None else
+                                   "   (unprofiled full step: %.1f)" % (unprofiled_mean / 1000)))
+
+
+def bench_form(board, form, micropython=None, unlocked=True, profile=False, items=None):
+    """Instruction counts of every BENCH_ITEMS entry (or those named in ``items``), and of the
+    firmware's sample() (unless ``items`` leaves out "firmware"), on one board and form; with
+    ``profile`` the per-function breakdown of the full step (``parse_profile``) too."""
     files = firmware_files(CACHE / "sil-bench", FW_BENCH_SCENARIO)
     b = start(board, form, micropython, files=files)
     try:
@@ -602,12 +654,17 @@ def bench_form(board, form, micropython=None, unlocked=True):
         result = {"instructions_per_tick": scale, "overhead_ticks": overhead, "locked": {}, "unlocked": {}}
         for lock in (True, False) if unlocked else (True,):
             for name, call, first in BENCH_ITEMS:
-                if not lock and name == "pressure_to_alt_mm":
+                if not lock and name == "pressure_to_alt_mm" or items is not None and name not in items:
                     continue
                 out = b.exec("g.dump('r', %s)" % (call % lock))
                 ticks, phases, _states = parse_dump(out, "r")
                 mode = "locked" if lock else "unlocked"
                 result[mode][name] = summarise(ticks, phases, overhead, scale, first)
+        if profile:
+            out = b.exec("g.dump_profile(g.profile_fc(flight))")
+            result["profile"] = parse_profile(out, overhead, scale)
+        if items is not None and "firmware" not in items:
+            return result
         out = b.exec("g.dump('fw', g.firmware_path('/ram/sil/frames.bin', '/ram/sil', %d, True, True))\n"
                      "g.print_ints('fake', g.FAKE_BUS_TICKS)\n" % FW_BENCH_SAMPLES)
         ticks, phases, _states = parse_dump(out, "fw")
@@ -639,6 +696,10 @@ def print_bench(results, header=True):
                     cells.append("%s / %s" % (_fmt_k(p["mean"]), _fmt_k(p["worst"])) if p and name not in (
                         "pressure_to_alt_mm",) else "-")
                 print("  %-30s %-8s %15s %15s %15s %15s %15s" % (name, mode, *cells))
+        if "profile" in r:
+            step = r["locked"].get("full step")
+            print()
+            print_profile(r["profile"], step["mean"] if step else None)
 
 
 def _boards(text):
@@ -678,6 +739,11 @@ def main(argv=None):
     p.add_argument("--form", default="all")
     p.add_argument("--locked-only", action="store_true", help="skip the heap-unlocked runs")
     p.add_argument("--json", metavar="OUT", help="also write the figures as JSON")
+    p.add_argument("--profile", action="store_true",
+                   help="also the full step's per-function breakdown (heap locked)")
+    p.add_argument("--items", metavar="NAMES",
+                   help="only these, comma-separated: %s, firmware (default: all)" % ", ".join(
+                       name for name, _call, _first in BENCH_ITEMS))
     sub.add_parser("check-tables", help="list ints outside +-8191 in constant tuples of shared/ and device/")
     args = parser.parse_args(argv)
     try:
@@ -705,10 +771,18 @@ def main(argv=None):
             finally:
                 b.close()
             return 0
+        items = None
+        if args.items is not None:
+            items = args.items.split(",")
+            known = [name for name, _call, _first in BENCH_ITEMS] + ["firmware"]
+            for name in items:
+                if name not in known:
+                    raise ArmError("unknown bench item %r (known: %s)" % (name, ", ".join(known)))
         results = {}
         for board in _boards(args.board):
             for form in _forms(args.form):
-                results[(board, form)] = bench_form(board, form, args.micropython, not args.locked_only)
+                results[(board, form)] = bench_form(board, form, args.micropython, not args.locked_only,
+                                                    args.profile, items)
                 print_bench({(board, form): results[(board, form)]}, header=len(results) == 1)
                 sys.stdout.flush()
         if args.json:

@@ -197,6 +197,332 @@ def count_filter(flight, phases, rate_hz, lock=True):
     return ticks, phases, states
 
 
+# -- per-function breakdown of the full step ------------------------------------------------------
+#
+# ``profile_fc`` replaces the methods named in PROFILE (and module-level functions) by wrappers
+# that read SysTick around the real call: an instance attribute shadows the class's method, so
+# ``self.x(...)`` and ``obj.x(...)`` both reach the wrapper; a module global does the same for a
+# module-level function. Each wrapper is a plain function whose bindings are default arguments (a
+# closure over more than a few values, or a bound method called with more than 4 arguments, would
+# allocate on MicroPython and fail under the heap lock) and calls the class's function with the
+# instance. Self time = inclusive time less the children's (their inclusive time and the wrapper's
+# own cost, calibrated on a no-op), so the self times of all functions add up to the unprofiled step
+# within the map-cache effects of the extra instance attributes.
+
+# (label, object path from the flight computer or "module:" + module name, attribute, arity)
+PROFILE = (
+    ("FlightComputer._arbitrate", "fc", "_arbitrate", 6),
+    ("FlightComputer._set_baro_weight", "fc", "_set_baro_weight", 0),
+    ("FlightComputer._set_model", "fc", "_set_model", 1),
+    ("FlightComputer._apogee_enabled", "fc", "_apogee_enabled", 0),
+    ("FlightComputer._accel_only_apogee", "fc", "_accel_only_apogee", 0),
+    ("FlightComputer._update_averages", "fc", "_update_averages", 1),
+    ("FlightComputer._update_boost", "fc", "_update_boost", 5),
+    ("FlightComputer._integrate_accel", "fc", "_integrate_accel", 3),
+    ("FlightComputer._transition", "fc", "_transition", 1),
+    ("FlightComputer._false_launch", "fc", "_false_launch", 0),
+    ("FlightComputer._drogue_rule", "fc", "_drogue_rule", 1),
+    ("FlightComputer._landing_rule", "fc", "_landing_rule", 0),
+    ("FlightComputer._check_proof", "fc", "_check_proof", 1),
+    ("FlightComputer._pyro", "fc", "_pyro", 0),
+    ("flight._ema", "module:shared.flight", "_ema", 4),
+    ("SensorHealth.judge", "health", "judge", 3),
+    ("SensorHealth.watch", "health", "watch", 5),
+    ("SensorHealth.age", "health", "age", 2),
+    ("PadCalibration.update", "pad", "update", 5),
+    ("PadCalibration._history", "pad", "_history", 1),
+    ("PadCalibration._accel_verdict", "pad", "_accel_verdict", 3),
+    ("PadCalibration._add_alt", "pad", "_add_alt", 3),
+    ("PadCalibration._apply", "pad", "_apply", 4),
+    ("PadCalibration.check_orientation", "pad", "check_orientation", 1),
+    ("Arbitration.integrate", "arb", "integrate", 4),
+    ("Arbitration.integrate_missing", "arb", "integrate_missing", 1),
+    ("Arbitration.add_baro", "arb", "add_baro", 4),
+    ("Arbitration._judge", "arb", "_judge", 1),
+    ("Arbitration.lower_mmps", "arb", "lower_mmps", 0),
+    ("Arbitration.start", "arb", "start", 1),
+    ("Detector.step", "det", "step", 5),
+    ("Detector._predict", "det", "_predict", 1),
+    ("Detector._elapse", "det", "_elapse", 3),
+    ("Detector._on_schedule", "det", "_on_schedule", 1),
+    ("Detector._row_for", "det", "_row_for", 2),
+    ("Detector._outlier", "det", "_outlier", 4),
+    ("Detector._set_period", "det", "_set_period", 1),
+    ("VelocityRule.update", "rule", "update", 3),
+    ("Kalman.predict", "kf", "predict", 1),
+    ("Kalman.correct", "kf", "correct", 4),
+    ("Kalman.correct_baro", "kf", "correct_baro", 2),
+    ("Kalman.correct_accel", "kf", "correct_accel", 2),
+    ("Kalman.correct_coast", "kf", "correct_coast", 4),
+    ("Kalman.correct_baro_part", "kf", "correct_baro_part", 3),
+    ("Kalman.correct_accel_part", "kf", "correct_accel_part", 3),
+    ("Kalman.correct_gravity", "kf", "correct_gravity", 2),
+    ("Kalman._baro_innovation", "kf", "_baro_innovation", 1),
+    ("Kalman._accel_innovation", "kf", "_accel_innovation", 1),
+    ("Kalman._add2", "kf", "_add2", 5),
+    ("Kalman._add", "kf", "_add", 4),
+    ("Kalman._store", "kf", "_store", 3),
+    ("kalman._mul_gain", "module:shared.kalman", "_mul_gain", 3),
+    ("kalman._innovation", "module:shared.kalman", "_innovation", 2),
+    ("detector._clamp", "module:shared.detector", "_clamp", 1),
+)
+_P_MAX_DEPTH = 16
+_p_depth = array("i", [0])
+# per depth: the children's ticks as the caller saw them (wrapper cost included), and the count of
+# wrapped calls below (to take the wrappers' cost out of the inclusive times)
+_p_child = array("i", [0] * _P_MAX_DEPTH)
+_p_desc = array("i", [0] * _P_MAX_DEPTH)
+_p_incl = None  # per function, this sample: inclusive ticks, self ticks, calls
+_p_self = None
+_p_calls = None
+_p_cost = array("i", [0])  # a wrapped call's extra ticks seen by its caller (calibrated)
+_p_ovh = array("i", [0])  # the readings' own ticks inside a wrapper, beyond the call's (calibrated)
+
+
+def _p_enter():
+    d = _p_depth[0] + 1
+    _p_depth[0] = d
+    _p_child[d] = 0
+    _p_desc[d] = 0
+    return d
+
+
+def _p_leave(d, slot, dt):
+    dt -= _p_ovh[0]
+    desc = _p_desc[d]
+    _p_depth[0] = d - 1
+    _p_incl[slot] += dt - desc * _p_cost[0]
+    _p_self[slot] += dt - _p_child[d]
+    _p_calls[slot] += 1
+    _p_child[d - 1] += dt + _p_cost[0]
+    _p_desc[d - 1] += 1 + desc
+
+
+def _wrapper(fn, obj, slot, arity):
+    """A wrapper of ``fn`` (called with ``obj`` first unless it is None) with ``arity`` arguments."""
+    tc = _ticks
+    td = _diff
+    if obj is None:
+        if arity == 1:
+            def w(a, _f=fn, _s=slot, _tc=tc, _td=td):
+                d = _p_enter()
+                t0 = _tc()
+                r = _f(a)
+                _p_leave(d, _s, _td(_tc(), t0))
+                return r
+        elif arity == 2:
+            def w(a, b, _f=fn, _s=slot, _tc=tc, _td=td):
+                d = _p_enter()
+                t0 = _tc()
+                r = _f(a, b)
+                _p_leave(d, _s, _td(_tc(), t0))
+                return r
+        elif arity == 3:
+            def w(a, b, c, _f=fn, _s=slot, _tc=tc, _td=td):
+                d = _p_enter()
+                t0 = _tc()
+                r = _f(a, b, c)
+                _p_leave(d, _s, _td(_tc(), t0))
+                return r
+        elif arity == 4:
+            def w(a, b, c, e, _f=fn, _s=slot, _tc=tc, _td=td):
+                d = _p_enter()
+                t0 = _tc()
+                r = _f(a, b, c, e)
+                _p_leave(d, _s, _td(_tc(), t0))
+                return r
+        else:
+            raise ValueError("module function arity %d" % arity)
+        return w
+    if arity == 0:
+        def w(_f=fn, _o=obj, _s=slot, _tc=tc, _td=td):
+            d = _p_enter()
+            t0 = _tc()
+            r = _f(_o)
+            _p_leave(d, _s, _td(_tc(), t0))
+            return r
+    elif arity == 1:
+        def w(a, _f=fn, _o=obj, _s=slot, _tc=tc, _td=td):
+            d = _p_enter()
+            t0 = _tc()
+            r = _f(_o, a)
+            _p_leave(d, _s, _td(_tc(), t0))
+            return r
+    elif arity == 2:
+        def w(a, b, _f=fn, _o=obj, _s=slot, _tc=tc, _td=td):
+            d = _p_enter()
+            t0 = _tc()
+            r = _f(_o, a, b)
+            _p_leave(d, _s, _td(_tc(), t0))
+            return r
+    elif arity == 3:
+        def w(a, b, c, _f=fn, _o=obj, _s=slot, _tc=tc, _td=td):
+            d = _p_enter()
+            t0 = _tc()
+            r = _f(_o, a, b, c)
+            _p_leave(d, _s, _td(_tc(), t0))
+            return r
+    elif arity == 4:
+        def w(a, b, c, e, _f=fn, _o=obj, _s=slot, _tc=tc, _td=td):
+            d = _p_enter()
+            t0 = _tc()
+            r = _f(_o, a, b, c, e)
+            _p_leave(d, _s, _td(_tc(), t0))
+            return r
+    elif arity == 5:
+        def w(a, b, c, e, f, _f=fn, _o=obj, _s=slot, _tc=tc, _td=td):
+            d = _p_enter()
+            t0 = _tc()
+            r = _f(_o, a, b, c, e, f)
+            _p_leave(d, _s, _td(_tc(), t0))
+            return r
+    elif arity == 6:
+        def w(a, b, c, e, f, h, _f=fn, _o=obj, _s=slot, _tc=tc, _td=td):
+            d = _p_enter()
+            t0 = _tc()
+            r = _f(_o, a, b, c, e, f, h)
+            _p_leave(d, _s, _td(_tc(), t0))
+            return r
+    else:
+        raise ValueError("method arity %d" % arity)
+    return w
+
+
+class _Noop:
+    def m1(self, a):
+        return a
+
+
+def _p_calibrate():
+    """The wrapper's costs, from a wrapped no-op against a plain call of it, both timed outside:
+    its readings' ticks beyond those of the plain call (taken out of every inclusive time) and the
+    extra ticks its caller sees (taken out of the caller's self time)."""
+    global _p_incl, _p_self, _p_calls
+    tc = _ticks
+    td = _diff
+    _p_incl = array("i", [0])
+    _p_self = array("i", [0])
+    _p_calls = array("i", [0])
+    _p_ovh[0] = 0
+    _p_cost[0] = 0
+    o = _Noop()
+    empty = plain = wrapped = inner = 0x3FFFFFFF
+    w = _wrapper(_Noop.m1, o, 0, 1)
+    _lock()
+    try:
+        for _ in range(50):
+            t0 = tc()
+            t1 = tc()
+            empty = min(empty, td(t1, t0))
+            t0 = tc()
+            o.m1(1)
+            t1 = tc()
+            plain = min(plain, td(t1, t0))
+            _p_incl[0] = 0
+            _p_depth[0] = 0
+            t0 = tc()
+            w(1)
+            t1 = tc()
+            wrapped = min(wrapped, td(t1, t0))
+            inner = min(inner, _p_incl[0])
+    finally:
+        _unlock()
+    _p_ovh[0] = inner - (plain - empty)  # the no-op's inclusive time is then its plain call's
+    _p_cost[0] = wrapped - plain
+    return array("i", (_p_ovh[0], _p_cost[0]))
+
+
+def _p_loop(fc, dts, alts, accs, ticks, phases, k, incl_ph, self_ph, calls_ph, self_worst):
+    tc = _ticks
+    td = _diff
+    top = _p_child
+    for i in range(len(dts)):
+        _p_depth[0] = 0
+        top[0] = 0
+        _p_desc[0] = 0
+        t0 = tc()
+        fc.step(dts[i], alts[i], accs[i] + _ONE_G_MMPS2, HAVE_BOTH)
+        t1 = tc()
+        ticks[i] = td(t1, t0)
+        s = fc.state
+        ph = PAD if s == _FC_PAD else (BOOST if s == _FC_BOOST else (COAST if s < _FC_DROGUE else DESCENT))
+        phases[i] = ph
+        base = ph * (k + 1)  # each phase: the functions of PROFILE, then the step
+        for j in range(k):
+            incl_ph[base + j] += _p_incl[j]
+            self_ph[base + j] += _p_self[j]
+            calls_ph[base + j] += _p_calls[j]
+            if _p_self[j] > self_worst[j]:
+                self_worst[j] = _p_self[j]
+            _p_incl[j] = _p_self[j] = _p_calls[j] = 0
+        # the step's own time: its children's (wrapper costs included) taken out
+        j = k
+        incl_ph[base + j] += ticks[i] - _p_desc[0] * _p_cost[0]
+        self_ph[base + j] += ticks[i] - top[0]
+        calls_ph[base + j] += 1
+        if ticks[i] - top[0] > self_worst[j]:
+            self_worst[j] = ticks[i] - top[0]
+
+
+def profile_fc(flight_data, config=None):
+    """FlightComputer.step over the flight with the functions of PROFILE timed (heap locked).
+    Returns (labels, per-phase ticks: inclusive, self and calls summed over the phase's samples as
+    arrays of 4 x (len(labels)) laid out phase by phase, the worst sample's self ticks per label,
+    the step's ticks per sample, the phases, (wrapper readings' ticks, wrapper cost))."""
+    global _p_incl, _p_self, _p_calls
+    calib = _p_calibrate()
+    dts, alts, accs = flight_data[0], flight_data[1], flight_data[2]
+    n = len(dts)
+    fc = FlightComputer(load_config(config))
+    objs = {"fc": fc, "health": fc.health, "pad": fc.pad, "arb": fc.arb, "det": fc.det, "kf": fc.kf,
+            "rule": fc.det.rule}
+    from shared import detector, flight, kalman
+
+    modules = {"shared.flight": flight, "shared.kalman": kalman, "shared.detector": detector}
+    k = len(PROFILE)
+    _p_incl = array("i", bytearray(4 * k))
+    _p_self = array("i", bytearray(4 * k))
+    _p_calls = array("i", bytearray(4 * k))
+    restore = []
+    for slot, (_label, where, name, arity) in enumerate(PROFILE):
+        if where.startswith("module:"):
+            mod = modules[where[7:]]
+            fn = getattr(mod, name)
+            restore.append((mod, name, fn))
+            setattr(mod, name, _wrapper(fn, None, slot, arity))
+        else:
+            obj = objs[where]
+            setattr(obj, name, _wrapper(getattr(type(obj), name), obj, slot, arity))
+    labels = [p[0] for p in PROFILE] + ["FlightComputer.step"]
+    incl_ph = array("i", bytearray(16 * (k + 1)))
+    self_ph = array("i", bytearray(16 * (k + 1)))
+    calls_ph = array("i", bytearray(16 * (k + 1)))
+    self_worst = array("i", bytearray(4 * (k + 1)))
+    ticks = array("i", bytearray(4 * n))
+    phases = array("b", bytearray(n))
+    _lock()
+    try:
+        _p_loop(fc, dts, alts, accs, ticks, phases, k, incl_ph, self_ph, calls_ph, self_worst)
+    finally:
+        _unlock()
+        for mod, name, fn in restore:
+            setattr(mod, name, fn)
+    return labels, incl_ph, self_ph, calls_ph, self_worst, ticks, phases, calib
+
+
+def dump_profile(result):
+    """Print a profile_fc result as lines the host parses."""
+    labels, incl_ph, self_ph, calls_ph, self_worst, ticks, phases, calib = result
+    print("profile labels: " + " ".join(labels))
+    print_ints("profile calib", calib)
+    print_ints("profile incl", incl_ph)
+    print_ints("profile self", self_ph)
+    print_ints("profile calls", calls_ph)
+    print_ints("profile worst", self_worst)
+    print_ints("profile ticks", ticks)
+    print_ints("profile phases", phases)
+
+
 def _alt_loop(to_alt_mm, n, p_lo, p_span, ticks, states):
     tc = _ticks
     td = _diff
