@@ -120,60 +120,95 @@ class Detector:
         """Advance by ``dt_us`` and correct with the readings flagged in ``have``.
 
         Returns True on the sample at which the rule declares apogee (``enabled`` permitting).
+
+        The usual cases of the steps below are written out here rather than in helper methods:
+        on MicroPython a method call costs as much as a dozen lines of arithmetic (docs/BENCHMARKS.md,
+        "Per-sample cost"); the helpers keep the rare cases (a gap, a rate change, an outlier).
         """
         if dt_us != self.dt_us:  # re-select only when the period changes: this loops over the table
             self._set_period(dt_us)
         kf = self.kf
-        self._predict(dt_us)
-        self._elapse(0, dt_us, have & HAVE_BARO)
-        self._elapse(1, dt_us, have & HAVE_ACCEL)
-        if self.accel_off:
-            self.seen_us[1] = 0
-        if have & HAVE_BARO and self.gate_alt_mm and self._outlier(
-                _clamp(alt_mm) - (kf.alt_q4 >> 4), self.gate_alt_mm, 0, BARO_RESYNC_US):
-            have &= HAVE_ACCEL
-        if have & HAVE_ACCEL and self.gate_acc_mmps2 and self._outlier(
-                _clamp(acc_mmps2) - (kf.acc_q4 >> 4), self.gate_acc_mmps2, 1, ACCEL_RESYNC_US):
-            have &= HAVE_BARO
-        model = self.model
-        if model == MODEL_GRAVITY:
-            if have & HAVE_BARO:
-                kf.correct_gravity(self._row_for(0, dt_us), alt_mm)
-        elif have == HAVE_BOTH:
-            if model == MODEL_BIAS:
-                kf.correct_coast(self._row_for(0, dt_us), self._row_for(1, dt_us), alt_mm, acc_mmps2)
-            else:
-                kf.correct(self._row_for(0, dt_us), self._row_for(1, dt_us), alt_mm, acc_mmps2)
-        elif have == HAVE_BARO:
-            if self._on_schedule(1):
-                kf.correct_baro_part(self._row_for(0, dt_us), alt_mm, model == MODEL_BIAS)
-            else:
-                kf.correct_baro(self._row_for(0, dt_us), alt_mm)
-        elif have == HAVE_ACCEL:
-            if self._on_schedule(0):
-                kf.correct_accel_part(self._row_for(1, dt_us), acc_mmps2, model == MODEL_BIAS)
-            else:
-                kf.correct_accel(self._row_for(1, dt_us), acc_mmps2)
-        if have & HAVE_BARO:
-            self.used_us[0] = 0
-        if have & HAVE_ACCEL:
-            self.used_us[1] = 0
-        if kf.acc_q4 > self.acc_max_q4:
-            kf.acc_q4 = self.acc_max_q4
-        return self.rule.update(kf, self.row[0], enabled)
-
-    def _predict(self, dt_us):
-        """Advance the state by ``dt_us``: one period of the selected rate when the period is
-        regular; otherwise whole periods (of the rate in use across a gap, of the fastest rate for
-        a sample sooner than a period), the remainder carried to the next sample so that the
-        filter's time keeps up with the samples' (a burst of rows 1 ms apart predicts 1 ms each)."""
-        kf = self.kf
         row = self.row
-        if self.regular:
+        regular = self.regular
+        if regular:  # one period of the selected rate
             self.carry_us = 0
             self.predict_steps = 1
             kf.predict(row)
-            return
+        else:
+            self._predict_irregular(dt_us)
+        # each sensor's clocks advance by dt_us; a fresh reading measures its interval
+        seen = self.seen_us
+        used = self.used_us
+        interval = self.interval_us
+        for sensor in range(2):  # barometer, accelerometer: their flags are HAVE_BARO << sensor
+            t = seen[sensor] + dt_us
+            if t > _SINCE_LIMIT_US:
+                t = _SINCE_LIMIT_US
+            if have & (HAVE_BARO << sensor):
+                interval[sensor] = t
+                t = 0
+            seen[sensor] = t
+            t = used[sensor] + dt_us
+            used[sensor] = t if t < _SINCE_LIMIT_US else _SINCE_LIMIT_US
+        if self.accel_off:
+            seen[1] = 0
+        # innovation gates: a reading inside a closed gate is used at once; the rest is _outlier's
+        if have & HAVE_BARO:
+            gate = self.gate_alt_mm
+            if gate:
+                e = _clamp(alt_mm) - (kf.alt_q4 >> 4)
+                if -gate <= e <= gate and self.inside_us[0] < 0:
+                    self.outlier_us[0] = 0
+                elif self._outlier(e, gate, 0, BARO_RESYNC_US):
+                    have &= HAVE_ACCEL
+        if have & HAVE_ACCEL:
+            gate = self.gate_acc_mmps2
+            if gate:
+                e = _clamp(acc_mmps2) - (kf.acc_q4 >> 4)
+                if -gate <= e <= gate and self.inside_us[1] < 0:
+                    self.outlier_us[1] = 0
+                elif self._outlier(e, gate, 1, ACCEL_RESYNC_US):
+                    have &= HAVE_BARO
+        # each reading's gain row: the sample's own row when it came one regular period after the
+        # previous reading (every sample carries it), else the row of its own interval
+        model = self.model
+        if have & HAVE_BARO:
+            row_baro = row if regular and interval[0] == dt_us else self._interval_row(0)
+        if have & HAVE_ACCEL and model != MODEL_GRAVITY:
+            row_acc = row if regular and interval[1] == dt_us else self._interval_row(1)
+        if model == MODEL_GRAVITY:
+            if have & HAVE_BARO:
+                kf.correct_gravity(row_baro, alt_mm)
+        elif have == HAVE_BOTH:
+            if model == MODEL_BIAS:
+                kf.correct_coast(row_baro, row_acc, alt_mm, acc_mmps2)
+            else:
+                kf.correct(row_baro, row_acc, alt_mm, acc_mmps2)
+        elif have == HAVE_BARO:
+            if self._on_schedule(1):
+                kf.correct_baro_part(row_baro, alt_mm, model == MODEL_BIAS)
+            else:
+                kf.correct_baro(row_baro, alt_mm)
+        elif have == HAVE_ACCEL:
+            if self._on_schedule(0):
+                kf.correct_accel_part(row_acc, acc_mmps2, model == MODEL_BIAS)
+            else:
+                kf.correct_accel(row_acc, acc_mmps2)
+        if have & HAVE_BARO:
+            used[0] = 0
+        if have & HAVE_ACCEL:
+            used[1] = 0
+        if kf.acc_q4 > self.acc_max_q4:
+            kf.acc_q4 = self.acc_max_q4
+        return self.rule.update(kf, row[0], enabled)
+
+    def _predict_irregular(self, dt_us):
+        """Advance the state by an irregular ``dt_us`` (the regular period is one prediction, in
+        ``step``): whole periods (of the rate in use across a gap, of the fastest rate for a sample
+        sooner than a period), the remainder carried to the next sample so that the filter's time
+        keeps up with the samples' (a burst of rows 1 ms apart predicts 1 ms each)."""
+        kf = self.kf
+        row = self.row
         period_us = 1000000 // row[0]
         if dt_us < period_us - (period_us >> 3):
             row = self.fine_row
@@ -188,31 +223,16 @@ class Detector:
         for _ in range(steps):
             kf.predict(row)
 
-    def _elapse(self, sensor, dt_us, fresh):
-        """Advance the sensor's clocks by ``dt_us``; on a fresh reading its interval is measured."""
-        t = self.seen_us[sensor] + dt_us
-        if t > _SINCE_LIMIT_US:
-            t = _SINCE_LIMIT_US
-        if fresh:
-            self.interval_us[sensor] = t
-            t = 0
-        self.seen_us[sensor] = t
-        t = self.used_us[sensor] + dt_us
-        self.used_us[sensor] = t if t < _SINCE_LIMIT_US else _SINCE_LIMIT_US
-
     def _on_schedule(self, sensor):
         """True while the sensor informs the filter: it has a used reading within SCHEDULE_US."""
         if sensor == 1 and self.accel_off:
             return False
         return self.interval_us[sensor] > 0 and self.used_us[sensor] < SCHEDULE_US
 
-    def _row_for(self, sensor, dt_us):
-        """The gain row for the sensor's reading interval: the sample's own row when the reading
-        came one regular period after the last one (every sample carries it), else the row of the
-        nearest table period (the slowest rate for an interval beyond it)."""
+    def _interval_row(self, sensor):
+        """The gain row of the table period nearest to the sensor's reading interval (the slowest
+        rate for an interval beyond it), kept until the interval changes."""
         interval = self.interval_us[sensor]
-        if interval == dt_us and self.regular:
-            return self.row
         if interval != self.sensor_row_us[sensor]:
             self.sensor_row[sensor] = self._nearest(interval)
             self.sensor_row_us[sensor] = interval
@@ -232,10 +252,11 @@ class Detector:
         return best
 
     def _outlier(self, e, gate, sensor, resync_us):
-        """True if the innovation ``e`` is beyond ``gate`` and this sensor's run of outliers is
-        still shorter than ``resync_us`` (then the reading is not used). The run is timed by the
-        sensor's own reading intervals. Once re-synchronised the gate stays open until the
-        innovation has stayed inside it for GATE_REARM_US."""
+        """For a reading outside the gate, or while the gate is open (``step`` uses a reading
+        inside a closed gate at once): True if the innovation ``e`` is beyond ``gate`` and this
+        sensor's run of outliers is still shorter than ``resync_us`` (then the reading is not
+        used). The run is timed by the sensor's own reading intervals. Once re-synchronised the
+        gate stays open until the innovation has stayed inside it for GATE_REARM_US."""
         inside = -gate <= e <= gate
         interval_us = self.interval_us[sensor]
         if self.inside_us[sensor] >= 0:
@@ -245,9 +266,6 @@ class Detector:
             self.inside_us[sensor] += interval_us
             if self.inside_us[sensor] >= GATE_REARM_US:
                 self.inside_us[sensor] = -1
-            return False
-        if inside:
-            self.outlier_us[sensor] = 0
             return False
         self.outlier_us[sensor] += interval_us
         if self.outlier_us[sensor] < resync_us:
@@ -261,7 +279,7 @@ class Detector:
         """Select the sample's rate for ``dt_us``.
 
         A period within 1/8 of a table rate's period is one step of that rate (jitter, or a logger
-        changing rate: 10 ms, then 100 ms). Anything else is irregular (see ``_predict``): a gap is
+        changing rate: 10 ms, then 100 ms). Anything else is irregular (see ``_predict_irregular``): a gap is
         whole periods of the rate in use before it (a 60 ms gap at 100 Hz is six 100 Hz steps), at
         most MAX_PREDICT_STEPS.
         """

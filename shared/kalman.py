@@ -42,17 +42,22 @@ _G_Q4 = const(156912)  # standard gravity, 9806.65 mm/s^2 * 16
 _INNOV_LIMIT = const(0x7FFFFFF)  # 2**27 - 1 (1/16 mm): 8.4 km, inside _mul_gain's domain
 
 
+# MicroPython cost (docs/BENCHMARKS.md, "Per-sample cost"): a method call costs about three times
+# a module-level function call, every bytecode operation about a hundred instructions on a
+# Cortex-M0. So the helpers of the corrections below are module-level functions taking the filter,
+# and each does its work in as few operations as the exact arithmetic allows.
+
+
 def _mul_gain(e, m, s):
     """round(e * m / 2**s), half up, for |e| < 2**28, |m| < 2**14, 14 <= s <= 28, in 31 bits.
 
-    e = hi * 2**14 + lo with 0 <= lo < 2**14, so e*m = (hi*m) * 2**14 + lo*m. The high product is
-    split at bit r = s - 14 into its quotient and remainder; the remainder rejoins the low product,
-    so the result is exactly rounded (a truncating product biases every correction by about one
-    unit, which the slow velocity loop turns into centimetres of altitude error).
+    e = hi * 2**14 + lo with 0 <= lo < 2**14, so e*m + 2**(s-1) = (hi*m) * 2**14 + (lo*m + 2**(s-1)).
+    The low sum's bits below 2**14 cannot reach the quotient by 2**s (s >= 14): its upper part
+    joins the high product, and the sum is then divided by the remaining 2**(s-14). Exactly rounded
+    (a truncating product biases every correction by about one unit, which the slow velocity loop
+    turns into centimetres of altitude error); every intermediate is below 2**29.
     """
-    p = (e >> 14) * m
-    r = s - 14
-    return (p >> r) + ((((p & ((1 << r) - 1)) << 14) + (e & 0x3FFF) * m + (1 << (s - 1))) >> s)
+    return ((e >> 14) * m + (((e & 0x3FFF) * m + (1 << (s - 1))) >> 14)) >> (s - 14)
 
 
 def _innovation(meas_mm, state_q4):
@@ -68,6 +73,61 @@ def _innovation(meas_mm, state_q4):
     if e < -_INNOV_LIMIT:
         return -_INNOV_LIMIT
     return e
+
+
+def _baro_innovation(kf, alt_mm):
+    """The barometric innovation, kept in ``innov_alt_q4``, then weighted (Mach de-weighting)."""
+    e = _innovation(alt_mm, kf.alt_q4)
+    kf.innov_alt_q4 = e
+    weight = kf.baro_weight_256
+    if weight < 256:
+        e = (e >> 8) * weight
+    return e
+
+
+def _accel_innovation(kf, acc_mmps2):
+    # acc_q4 + bias_q4 stays within 2**28 (both clamped to 2**27): the sum is inside 31 bits
+    return _innovation(acc_mmps2, kf.acc_q4 + kf.bias_q4)
+
+
+def _add2(kf, eh, ea, rh, ra, i):
+    """Add K [eh, ea] for the two-measurement gains starting at index i: the altitude column
+    from row ``rh``, the acceleration column from row ``ra``."""
+    mul = _mul_gain  # a local: cheaper than six global lookups
+    _store(kf,
+           kf.alt_q4 + mul(eh, rh[i], rh[i + 1]) + mul(ea, ra[i + 2], ra[i + 3]),
+           kf.vel_q4 + mul(eh, rh[i + 4], rh[i + 5]) + mul(ea, ra[i + 6], ra[i + 7]),
+           kf.acc_q4 + mul(eh, rh[i + 8], rh[i + 9]) + mul(ea, ra[i + 10], ra[i + 11]))
+
+
+def _add(kf, e, row, i, stride):
+    """Add K e for one column of gains: altitude, velocity and acceleration gains at row[i],
+    row[i + stride], row[i + 2 stride] (stride 2: single-sensor gains; 4: one column of the
+    two-sensor gains)."""
+    mul = _mul_gain
+    j = i + stride
+    k = j + stride
+    _store(kf, kf.alt_q4 + mul(e, row[i], row[i + 1]), kf.vel_q4 + mul(e, row[j], row[j + 1]),
+           kf.acc_q4 + mul(e, row[k], row[k + 1]))
+
+
+def _store(kf, alt, vel, acc):
+    """Store the state, clamped to its limits."""
+    if alt > ALT_LIMIT_Q4:
+        alt = ALT_LIMIT_Q4
+    elif alt < -ALT_LIMIT_Q4:
+        alt = -ALT_LIMIT_Q4
+    if vel > RATE_LIMIT_Q4:
+        vel = RATE_LIMIT_Q4
+    elif vel < -RATE_LIMIT_Q4:
+        vel = -RATE_LIMIT_Q4
+    if acc > RATE_LIMIT_Q4:
+        acc = RATE_LIMIT_Q4
+    elif acc < -RATE_LIMIT_Q4:
+        acc = -RATE_LIMIT_Q4
+    kf.alt_q4 = alt
+    kf.vel_q4 = vel
+    kf.acc_q4 = acc
 
 
 def _clamp(x, limit):
@@ -105,97 +165,53 @@ class Kalman:
         """Advance the state by one period T = 1 / row[0] s (constant-acceleration model)."""
         rate = row[0]
         acc = self.acc_q4
+        vel = self.vel_q4
         dv = (acc + (rate >> 1)) // rate  # a*T, rounded
         # h += v*T + a*T^2/2 = (2v + a*T) / (2 rate), rounded
-        self._store(self.alt_q4 + (2 * self.vel_q4 + dv + rate) // (2 * rate), self.vel_q4 + dv, acc)
+        _store(self, self.alt_q4 + (2 * vel + dv + rate) // (2 * rate), vel + dv, acc)
 
     def correct(self, row_alt, row_acc, alt_mm, acc_mmps2):
         """Correct with a barometric altitude (mm) and a kinematic acceleration (mm/s^2); each
         sensor's gains from its own row (the same row when both are read at the same rate)."""
-        self._add2(self._baro_innovation(alt_mm), self._accel_innovation(acc_mmps2), row_alt, row_acc, 1)
+        _add2(self, _baro_innovation(self, alt_mm), _accel_innovation(self, acc_mmps2), row_alt, row_acc, 1)
 
     def correct_baro(self, row, alt_mm):
         """Correct with a barometric altitude (mm) only (no accelerometer reading)."""
-        self._add(self._baro_innovation(alt_mm), row, 13, 2)
+        _add(self, _baro_innovation(self, alt_mm), row, 13, 2)
 
     def correct_accel(self, row, acc_mmps2):
         """Correct with a kinematic acceleration (mm/s^2) only (no barometer reading)."""
-        self._add(self._accel_innovation(acc_mmps2), row, 19, 2)
+        _add(self, _accel_innovation(self, acc_mmps2), row, 19, 2)
 
     def correct_coast(self, row_alt, row_acc, alt_mm, acc_mmps2):
         """Correct with both readings and update the accelerometer bias (coast model)."""
-        eh = self._baro_innovation(alt_mm)
-        ea = self._accel_innovation(acc_mmps2)
-        self._add2(eh, ea, row_alt, row_acc, 25)
+        eh = _baro_innovation(self, alt_mm)
+        ea = _accel_innovation(self, acc_mmps2)
+        _add2(self, eh, ea, row_alt, row_acc, 25)
         self.bias_q4 = _clamp(self.bias_q4 + _mul_gain(eh, row_alt[37], row_alt[38])
                               + _mul_gain(ea, row_acc[39], row_acc[40]), self.bias_limit_q4)
 
     def correct_baro_part(self, row, alt_mm, coast):
         """Correct with a barometric altitude (mm) through the barometer's column of the two-sensor
         gains (``coast``: the coast gains, which also update the bias)."""
-        eh = self._baro_innovation(alt_mm)
+        eh = _baro_innovation(self, alt_mm)
         if coast:
-            self._add(eh, row, 25, 4)
+            _add(self, eh, row, 25, 4)
             self.bias_q4 = _clamp(self.bias_q4 + _mul_gain(eh, row[37], row[38]), self.bias_limit_q4)
         else:
-            self._add(eh, row, 1, 4)
+            _add(self, eh, row, 1, 4)
 
     def correct_accel_part(self, row, acc_mmps2, coast):
         """Correct with a kinematic acceleration (mm/s^2) through the accelerometer's column of the
         two-sensor gains (``coast``: the coast gains, which also update the bias)."""
-        ea = self._accel_innovation(acc_mmps2)
+        ea = _accel_innovation(self, acc_mmps2)
         if coast:
-            self._add(ea, row, 27, 4)
+            _add(self, ea, row, 27, 4)
             self.bias_q4 = _clamp(self.bias_q4 + _mul_gain(ea, row[39], row[40]), self.bias_limit_q4)
         else:
-            self._add(ea, row, 3, 4)
+            _add(self, ea, row, 3, 4)
 
     def correct_gravity(self, row, alt_mm):
         """Late coast: correct with a barometric altitude (mm) and the pseudo-measurement that the
         vertical acceleration is -g (drag vanishes at apogee); the accelerometer is not used."""
-        self._add2(self._baro_innovation(alt_mm), -_G_Q4 - self.acc_q4, row, row, 41)
-
-    def _accel_innovation(self, acc_mmps2):
-        # acc_q4 + bias_q4 stays within 2**28 (both clamped to 2**27): the sum is inside 31 bits
-        return _innovation(acc_mmps2, self.acc_q4 + self.bias_q4)
-
-    def _baro_innovation(self, alt_mm):
-        e = _innovation(alt_mm, self.alt_q4)
-        self.innov_alt_q4 = e
-        if self.baro_weight_256 < 256:
-            e = (e >> 8) * self.baro_weight_256
-        return e
-
-    def _add2(self, eh, ea, rh, ra, i):
-        """Add K [eh, ea] for the two-measurement gains starting at index i: the altitude column
-        from row ``rh``, the acceleration column from row ``ra``."""
-        self._store(
-            self.alt_q4 + _mul_gain(eh, rh[i], rh[i + 1]) + _mul_gain(ea, ra[i + 2], ra[i + 3]),
-            self.vel_q4 + _mul_gain(eh, rh[i + 4], rh[i + 5]) + _mul_gain(ea, ra[i + 6], ra[i + 7]),
-            self.acc_q4 + _mul_gain(eh, rh[i + 8], rh[i + 9]) + _mul_gain(ea, ra[i + 10], ra[i + 11]))
-
-    def _add(self, e, row, i, stride):
-        """Add K e for one column of gains: altitude, velocity and acceleration gains at row[i],
-        row[i + stride], row[i + 2 stride] (stride 2: single-sensor gains; 4: one column of the
-        two-sensor gains)."""
-        self._store(self.alt_q4 + _mul_gain(e, row[i], row[i + 1]),
-                    self.vel_q4 + _mul_gain(e, row[i + stride], row[i + stride + 1]),
-                    self.acc_q4 + _mul_gain(e, row[i + 2 * stride], row[i + 2 * stride + 1]))
-
-    def _store(self, alt, vel, acc):
-        """Store the state, clamped to its limits (inline tests: this runs several times a sample)."""
-        if alt > ALT_LIMIT_Q4:
-            alt = ALT_LIMIT_Q4
-        elif alt < -ALT_LIMIT_Q4:
-            alt = -ALT_LIMIT_Q4
-        if vel > RATE_LIMIT_Q4:
-            vel = RATE_LIMIT_Q4
-        elif vel < -RATE_LIMIT_Q4:
-            vel = -RATE_LIMIT_Q4
-        if acc > RATE_LIMIT_Q4:
-            acc = RATE_LIMIT_Q4
-        elif acc < -RATE_LIMIT_Q4:
-            acc = -RATE_LIMIT_Q4
-        self.alt_q4 = alt
-        self.vel_q4 = vel
-        self.acc_q4 = acc
+        _add2(self, _baro_innovation(self, alt_mm), -_G_Q4 - self.acc_q4, row, row, 41)

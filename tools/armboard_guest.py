@@ -242,10 +242,9 @@ PROFILE = (
     ("Arbitration.lower_mmps", "arb", "lower_mmps", 0),
     ("Arbitration.start", "arb", "start", 1),
     ("Detector.step", "det", "step", 5),
-    ("Detector._predict", "det", "_predict", 1),
-    ("Detector._elapse", "det", "_elapse", 3),
+    ("Detector._predict_irregular", "det", "_predict_irregular", 1),
     ("Detector._on_schedule", "det", "_on_schedule", 1),
-    ("Detector._row_for", "det", "_row_for", 2),
+    ("Detector._interval_row", "det", "_interval_row", 1),
     ("Detector._outlier", "det", "_outlier", 4),
     ("Detector._set_period", "det", "_set_period", 1),
     ("VelocityRule.update", "rule", "update", 3),
@@ -257,11 +256,11 @@ PROFILE = (
     ("Kalman.correct_baro_part", "kf", "correct_baro_part", 3),
     ("Kalman.correct_accel_part", "kf", "correct_accel_part", 3),
     ("Kalman.correct_gravity", "kf", "correct_gravity", 2),
-    ("Kalman._baro_innovation", "kf", "_baro_innovation", 1),
-    ("Kalman._accel_innovation", "kf", "_accel_innovation", 1),
-    ("Kalman._add2", "kf", "_add2", 5),
-    ("Kalman._add", "kf", "_add", 4),
-    ("Kalman._store", "kf", "_store", 3),
+    ("kalman._baro_innovation", "module:shared.kalman", "_baro_innovation", 2),
+    ("kalman._accel_innovation", "module:shared.kalman", "_accel_innovation", 2),
+    ("kalman._add2", "module:shared.kalman", "_add2", 6),
+    ("kalman._add", "module:shared.kalman", "_add", 5),
+    ("kalman._store", "module:shared.kalman", "_store", 4),
     ("kalman._mul_gain", "module:shared.kalman", "_mul_gain", 3),
     ("kalman._innovation", "module:shared.kalman", "_innovation", 2),
     ("detector._clamp", "module:shared.detector", "_clamp", 1),
@@ -329,6 +328,20 @@ def _wrapper(fn, obj, slot, arity):
                 d = _p_enter()
                 t0 = _tc()
                 r = _f(a, b, c, e)
+                _p_leave(d, _s, _td(_tc(), t0))
+                return r
+        elif arity == 5:
+            def w(a, b, c, e, f, _f=fn, _s=slot, _tc=tc, _td=td):
+                d = _p_enter()
+                t0 = _tc()
+                r = _f(a, b, c, e, f)
+                _p_leave(d, _s, _td(_tc(), t0))
+                return r
+        elif arity == 6:
+            def w(a, b, c, e, f, h, _f=fn, _s=slot, _tc=tc, _td=td):
+                d = _p_enter()
+                t0 = _tc()
+                r = _f(a, b, c, e, f, h)
                 _p_leave(d, _s, _td(_tc(), t0))
                 return r
         else:
@@ -485,14 +498,18 @@ def profile_fc(flight_data, config=None):
     _p_calls = array("i", bytearray(4 * k))
     restore = []
     for slot, (_label, where, name, arity) in enumerate(PROFILE):
+        # a name the code no longer has is left out (its row then shows no calls)
         if where.startswith("module:"):
             mod = modules[where[7:]]
-            fn = getattr(mod, name)
-            restore.append((mod, name, fn))
-            setattr(mod, name, _wrapper(fn, None, slot, arity))
+            fn = getattr(mod, name, None)
+            if fn is not None:
+                restore.append((mod, name, fn))
+                setattr(mod, name, _wrapper(fn, None, slot, arity))
         else:
             obj = objs[where]
-            setattr(obj, name, _wrapper(getattr(type(obj), name), obj, slot, arity))
+            fn = getattr(type(obj), name, None)
+            if fn is not None:
+                setattr(obj, name, _wrapper(fn, obj, slot, arity))
     labels = [p[0] for p in PROFILE] + ["FlightComputer.step"]
     incl_ph = array("i", bytearray(16 * (k + 1)))
     self_ph = array("i", bytearray(16 * (k + 1)))
