@@ -43,7 +43,7 @@ HEALTH_NAMES = ("baro frozen", "baro lost", "accel frozen", "accel lost")
 # The ends of the altitude table: shared.altitude clamps any pressure outside it to these.
 ALT_TOP_MM = pressure_to_alt_mm(P_MIN_Q4)
 ALT_BOTTOM_MM = pressure_to_alt_mm(P_MAX_Q4)
-_AGE_LIMIT_MS = 0x3FFFFFFF  # ages saturate here (days), inside 31 bits
+_AGE_LIMIT_MS = const(0x3FFFFFFF)  # ages saturate here (days), inside 31 bits
 # A barometric step larger than baro_rate_max x dt plus this (the filter's 50 m outlier gate) in
 # one sample is a spike; beyond _RATE_DT_MAX_MS (a gap) no rate is judged.
 _SPIKE_ALLOW_MM = const(50000)
@@ -70,13 +70,12 @@ class SensorHealth:
         self.accel_age_ms = 0
         self.baro_ok = config.has_baro  # the board has it and it is not lost
         self.accel_ok = config.has_accel
+        # the readings of the sensors the board has (one operation per sample in judge)
+        self._board_mask = (HAVE_BARO if config.has_baro else 0) | (HAVE_ACCEL if config.has_accel else 0)
 
     def judge(self, alt_mm, accel_mmps2, have):
         """The usable readings of this sample (``have`` minus what cannot be trusted)."""
-        if not self.has_baro:
-            have &= HAVE_ACCEL
-        if not self.has_accel:
-            have &= HAVE_BARO
+        have &= self._board_mask
         if have & HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):
             have &= HAVE_ACCEL  # an out-of-range pressure is not a reading
             self.baro_out_of_range += 1
@@ -117,14 +116,15 @@ class SensorHealth:
         self.baro_moved = False
         if self.has_baro:
             if have & HAVE_BARO:
-                dt_ms = now_ms - self._baro_fresh_ms
                 step = alt_mm - self._baro_last
                 if step < 0:
                     step = -step
-                if (in_flight and self._baro_seen and dt_ms <= _RATE_DT_MAX_MS
-                        and step > self.baro_rate_max_mmps * dt_ms // 1000 + _SPIKE_ALLOW_MM):
-                    have &= HAVE_ACCEL
-                    self.baro_spikes += 1
+                if in_flight and self._baro_seen:
+                    dt_ms = now_ms - self._baro_fresh_ms
+                    if (dt_ms <= _RATE_DT_MAX_MS
+                            and step > self.baro_rate_max_mmps * dt_ms // 1000 + _SPIKE_ALLOW_MM):
+                        have &= HAVE_ACCEL
+                        self.baro_spikes += 1
                 if step or not self._baro_seen:
                     self._baro_run_ms = now_ms
                     self.baro_moved = True
@@ -132,7 +132,7 @@ class SensorHealth:
                 self._baro_seen = True
                 self._baro_fresh_ms = now_ms
             if in_flight and self._baro_seen and now_ms - self._baro_run_ms >= self.baro_stuck_ms:
-                flags |= HEALTH_BARO_STUCK
+                flags = HEALTH_BARO_STUCK
                 have &= HAVE_ACCEL
         if self.has_accel:
             if have & HAVE_ACCEL:
@@ -161,24 +161,36 @@ class SensorHealth:
                 have &= HAVE_BARO
         self._stuck = flags
         return have
+
     def age(self, dt_ms, have):
         """Count the time without a usable reading (``have`` as ``judge`` and ``watch`` returned
         it: a frozen sensor's readings are not usable either), and complete ``flags``."""
-        if have & HAVE_BARO:
-            self.baro_age_ms = 0
-        elif self.baro_age_ms < _AGE_LIMIT_MS - dt_ms:
-            self.baro_age_ms += dt_ms
-        if have & HAVE_ACCEL or self.clipped:  # clipped: alive, at full scale
-            self.accel_age_ms = 0
-        elif self.accel_age_ms < _AGE_LIMIT_MS - dt_ms:
-            self.accel_age_ms += dt_ms
-        # a sensor silent for sensor_lost_s no longer proves anything
-        self.baro_ok = self.has_baro and self.baro_age_ms < self.lost_ms
-        self.accel_ok = self.has_accel and self.accel_age_ms < self.lost_ms
         flags = self._stuck
-        if self.has_baro and not self.baro_ok:
-            flags |= HEALTH_BARO_LOST
-        if self.has_accel and not self.accel_ok:
-            flags |= HEALTH_ACCEL_LOST
+        lost_ms = self.lost_ms
+        # a sensor silent for sensor_lost_s no longer proves anything
+        age = self.baro_age_ms
+        if have & HAVE_BARO:
+            age = 0
+        elif age < _AGE_LIMIT_MS - dt_ms:
+            age += dt_ms
+        self.baro_age_ms = age
+        ok = False
+        if self.has_baro:
+            ok = age < lost_ms
+            if not ok:
+                flags |= HEALTH_BARO_LOST
+        self.baro_ok = ok
+        age = self.accel_age_ms
+        if have & HAVE_ACCEL or self.clipped:  # clipped: alive, at full scale
+            age = 0
+        elif age < _AGE_LIMIT_MS - dt_ms:
+            age += dt_ms
+        self.accel_age_ms = age
+        ok = False
+        if self.has_accel:
+            ok = age < lost_ms
+            if not ok:
+                flags |= HEALTH_ACCEL_LOST
+        self.accel_ok = ok
         self.changed = flags != self.flags
         self.flags = flags

@@ -103,18 +103,19 @@ class PadCalibration:
         shorter than that: the first sample's)."""
         return self._hist2
 
-    def _history(self, now_ms):
-        if now_ms - self._hist_ms >= _HISTORY_MS:
+    def update(self, now_ms, alt_mm, accel_mmps2, have, kf):
+        """Average a quiet pad sample's readings into the references; re-base ``kf`` on a pressure
+        step (or on the first barometric reading when the first samples had none).
+
+        (The usual path calls no method: on MicroPython a method call costs as much as a dozen
+        lines of arithmetic; attributes read more than once are read into locals.)"""
+        if now_ms - self._hist_ms >= _HISTORY_MS:  # the history of the ground reference
             self._hist2 = self._hist1
             self._hist1 = self._hist0
             self._hist0 = self.ground_alt_mm
             self._hist_ms = now_ms
-
-    def update(self, now_ms, alt_mm, accel_mmps2, have, kf):
-        """Average a quiet pad sample's readings into the references; re-base ``kf`` on a pressure
-        step (or on the first barometric reading when the first samples had none)."""
-        self._history(now_ms)
-        if have & HAVE_BARO:
+        baro = have & HAVE_BARO
+        if baro:
             if self._ref_pending:  # the first barometric reading: the first samples had none
                 self._ref_pending = False
                 self._rebase(alt_mm, kf)
@@ -134,8 +135,6 @@ class PadCalibration:
                 self.errors &= ~ERR_BARO_ERRATIC
             self._baro_ms = now_ms
             self._baro_alt_mm = alt_mm
-        d_alt = 0
-        if have & HAVE_BARO:
             d_alt = alt_mm - self._ref_mm
             # bounded so that a block's sum stays in 31 bits (1 km x 200 samples at 200 Hz) even if
             # the board sits in pad mode while the barometer sees a flight (launch refused)
@@ -147,26 +146,31 @@ class PadCalibration:
         if have & HAVE_ACCEL:
             limit = self.launch_accel_mmps2
             acc_kin = accel_mmps2 - self.one_g_mmps2
-            if not -limit < acc_kin < limit:
-                self._accel_verdict(now_ms, False, first)
+            # quiet: no boost, and not climbing under a push (a slow boost) by the barometer's
+            # reading on this sample or just before it
+            quiet = -limit < acc_kin < limit and not (
+                acc_kin > _PUSH_MMPS2 and self._baro_ms >= 0 and now_ms - self._baro_ms < _ACCEL_HOLD_MS
+                and kf.vel_q4 >> 4 > _QUIET_SPEED_MMPS
+                and self._baro_alt_mm - self.ground_alt_mm > _QUIET_CLIMB_MM)
+            # the barometric readings since the previous accelerometer reading were quiet if the
+            # accelerometer readings on both sides of them are
+            if quiet and self._accel_quiet and self._pend_alt_n:
+                _add_alt(self, self._pend_alt, self._pend_alt_n, first)
+            self._pend_alt = self._pend_alt_n = 0
+            self._accel_quiet = quiet
+            self._accel_ms = now_ms
+            if not quiet:
                 return
-            # the barometer's reading on this sample or just before it
-            if (acc_kin > _PUSH_MMPS2 and self._baro_ms >= 0 and now_ms - self._baro_ms < _ACCEL_HOLD_MS
-                    and kf.vel_q4 >> 4 > _QUIET_SPEED_MMPS
-                    and self._baro_alt_mm - self.ground_alt_mm > _QUIET_CLIMB_MM):
-                self._accel_verdict(now_ms, False, first)
-                return  # climbing under a push: a slow boost
-            self._accel_verdict(now_ms, True, first)
-            if have & HAVE_BARO:
-                self._add_alt(d_alt, 1, first)
+            if baro:
+                _add_alt(self, d_alt, 1, first)
             self._blk_acc += accel_mmps2
             self._blk_acc_n += 1
             if first:
                 self._all_acc += accel_mmps2
                 self._all_acc_n += 1
-        elif have & HAVE_BARO:
+        elif baro:
             if not self.has_accel or now_ms - self._accel_ms >= _ACCEL_HOLD_MS:
-                self._add_alt(d_alt, 1, first)  # no accelerometer (lately): the barometer alone
+                _add_alt(self, d_alt, 1, first)  # no accelerometer (lately): the barometer alone
             elif self._accel_quiet:
                 self._pend_alt += d_alt  # quiet if the next accelerometer reading is
                 self._pend_alt_n += 1
@@ -198,22 +202,6 @@ class PadCalibration:
         if not self.ground_fixed:
             self.ground_alt_mm = alt_mm
 
-    def _accel_verdict(self, now_ms, quiet, first):
-        """An accelerometer reading's verdict: the barometric readings since the previous one were
-        quiet if the accelerometer readings on both sides of them are."""
-        if quiet and self._accel_quiet and self._pend_alt_n:
-            self._add_alt(self._pend_alt, self._pend_alt_n, first)
-        self._pend_alt = self._pend_alt_n = 0
-        self._accel_quiet = quiet
-        self._accel_ms = now_ms
-
-    def _add_alt(self, alt_sum, n, first):
-        self._blk_alt += alt_sum
-        self._blk_alt_n += n
-        if first:
-            self._all_alt += alt_sum
-            self._all_alt_n += n
-
     def check_orientation(self, one_g):
         """Quiet pad readings must average 1 g +-50% on the axis: catches a wrong part (ADXL345 for
         ADXL375: 12.5 g or 0.08 g), a range setting off by 2 or more, an inverted mount (-1 g), a
@@ -242,3 +230,14 @@ class PadCalibration:
                 self.one_g_mmps2 = one_g
             if not alt_n:
                 self.cal_samples = acc_n
+
+
+def _add_alt(pad, alt_sum, n, first):
+    """Add barometric offsets to the block's sums (and to all of them before the first block is
+    complete). A module-level function: it is called on most pad samples, and on MicroPython a
+    method call costs about three times a function call."""
+    pad._blk_alt += alt_sum
+    pad._blk_alt_n += n
+    if first:
+        pad._all_alt += alt_sum
+        pad._all_alt_n += n

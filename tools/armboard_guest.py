@@ -230,9 +230,7 @@ PROFILE = (
     ("SensorHealth.watch", "health", "watch", 5),
     ("SensorHealth.age", "health", "age", 2),
     ("PadCalibration.update", "pad", "update", 5),
-    ("PadCalibration._history", "pad", "_history", 1),
-    ("PadCalibration._accel_verdict", "pad", "_accel_verdict", 3),
-    ("PadCalibration._add_alt", "pad", "_add_alt", 3),
+    ("padcal._add_alt", "module:shared.padcal", "_add_alt", 4),
     ("PadCalibration._apply", "pad", "_apply", 4),
     ("PadCalibration.check_orientation", "pad", "check_orientation", 1),
     ("Arbitration.integrate", "arb", "integrate", 4),
@@ -489,9 +487,10 @@ def profile_fc(flight_data, config=None):
     fc = FlightComputer(load_config(config))
     objs = {"fc": fc, "health": fc.health, "pad": fc.pad, "arb": fc.arb, "det": fc.det, "kf": fc.kf,
             "rule": fc.det.rule}
-    from shared import detector, flight, kalman
+    from shared import detector, flight, kalman, padcal
 
-    modules = {"shared.flight": flight, "shared.kalman": kalman, "shared.detector": detector}
+    modules = {"shared.flight": flight, "shared.kalman": kalman, "shared.detector": detector,
+               "shared.padcal": padcal}
     k = len(PROFILE)
     _p_incl = array("i", bytearray(4 * k))
     _p_self = array("i", bytearray(4 * k))
