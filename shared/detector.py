@@ -122,7 +122,7 @@ class Detector:
         Returns True on the sample at which the rule declares apogee (``enabled`` permitting).
 
         The usual cases of the steps below are written out here rather than in helper methods:
-        on MicroPython a method call costs as much as a dozen lines of arithmetic (docs/BENCHMARKS.md,
+        on MicroPython a method call costs as much as a dozen arithmetic operations (docs/BENCHMARKS.md,
         "Per-sample cost"); the helpers keep the rare cases (a gap, a rate change, an outlier).
         """
         if dt_us != self.dt_us:  # re-select only when the period changes: this loops over the table
@@ -184,13 +184,15 @@ class Detector:
                 kf.correct_coast(row_baro, row_acc, alt_mm, acc_mmps2)
             else:
                 kf.correct(row_baro, row_acc, alt_mm, acc_mmps2)
+        # a reading alone takes its column of the two-sensor gains while the other sensor is on
+        # schedule: it has a used reading within SCHEDULE_US (the accelerometer: and is not off)
         elif have == HAVE_BARO:
-            if self._on_schedule(1):
+            if not self.accel_off and interval[1] > 0 and used[1] < SCHEDULE_US:
                 kf.correct_baro_part(row_baro, alt_mm, model == MODEL_BIAS)
             else:
                 kf.correct_baro(row_baro, alt_mm)
         elif have == HAVE_ACCEL:
-            if self._on_schedule(0):
+            if interval[0] > 0 and used[0] < SCHEDULE_US:
                 kf.correct_accel_part(row_acc, acc_mmps2, model == MODEL_BIAS)
             else:
                 kf.correct_accel(row_acc, acc_mmps2)
@@ -222,12 +224,6 @@ class Detector:
         self.predict_steps = steps
         for _ in range(steps):
             kf.predict(row)
-
-    def _on_schedule(self, sensor):
-        """True while the sensor informs the filter: it has a used reading within SCHEDULE_US."""
-        if sensor == 1 and self.accel_off:
-            return False
-        return self.interval_us[sensor] > 0 and self.used_us[sensor] < SCHEDULE_US
 
     def _interval_row(self, sensor):
         """The gain row of the table period nearest to the sensor's reading interval (the slowest

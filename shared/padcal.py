@@ -108,7 +108,7 @@ class PadCalibration:
         step (or on the first barometric reading when the first samples had none).
 
         (The usual path calls no method: on MicroPython a method call costs as much as a dozen
-        lines of arithmetic; attributes read more than once are read into locals.)"""
+        arithmetic operations; docs/BENCHMARKS.md, "Per-sample cost".)"""
         if now_ms - self._hist_ms >= _HISTORY_MS:  # the history of the ground reference
             self._hist2 = self._hist1
             self._hist1 = self._hist0

@@ -241,7 +241,6 @@ PROFILE = (
     ("Arbitration.start", "arb", "start", 1),
     ("Detector.step", "det", "step", 5),
     ("Detector._predict_irregular", "det", "_predict_irregular", 1),
-    ("Detector._on_schedule", "det", "_on_schedule", 1),
     ("Detector._interval_row", "det", "_interval_row", 1),
     ("Detector._outlier", "det", "_outlier", 4),
     ("Detector._set_period", "det", "_set_period", 1),
