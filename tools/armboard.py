@@ -6,6 +6,7 @@ a Cortex-M0 (ARMv6-M, the RP2040's instruction set) or a Cortex-M3, run under
     python tools/armboard.py run SCRIPT.py [--board m0] [--form frozen]   # prints the guest's output
     python tools/armboard.py bench [--board m0,m3] [--form all] [--json OUT.json]
     python tools/armboard.py bench --board m0 --form frozen --locked-only --items "full step" --profile
+    python tools/armboard.py bench --board m0 --form frozen --locked-only --items none --op-costs
     python tools/armboard.py check-tables     # no constant tuple holds an int outside +-8191
 
 Forms (how the project's modules reach the board):
@@ -641,10 +642,11 @@ def print_profile(profile, unprofiled_mean=None):
                                    "   (unprofiled full step: %.1f)" % (unprofiled_mean / 1000)))
 
 
-def bench_form(board, form, micropython=None, unlocked=True, profile=False, items=None):
+def bench_form(board, form, micropython=None, unlocked=True, profile=False, items=None, op_costs=False):
     """Instruction counts of every BENCH_ITEMS entry (or those named in ``items``), and of the
     firmware's sample() (unless ``items`` leaves out "firmware"), on one board and form; with
-    ``profile`` the per-function breakdown of the full step (``parse_profile``) too."""
+    ``profile`` the per-function breakdown of the full step (``parse_profile``) too, with
+    ``op_costs`` the instructions of single operations and calls ({label: instructions})."""
     files = firmware_files(CACHE / "sil-bench", FW_BENCH_SCENARIO)
     b = start(board, form, micropython, files=files)
     try:
@@ -663,6 +665,13 @@ def bench_form(board, form, micropython=None, unlocked=True, profile=False, item
         if profile:
             out = b.exec("g.dump_profile(g.profile_fc(flight))")
             result["profile"] = parse_profile(out, overhead, scale)
+        if op_costs:
+            out = b.exec("g.dump_op_costs()")
+            result["op_costs"] = {}
+            for line in out.splitlines():
+                if line.startswith("opcost "):
+                    _word, ticks, label = line.split(" ", 2)
+                    result["op_costs"][label] = int(ticks) * scale / 10  # ten operations per reading
         if items is not None and "firmware" not in items:
             return result
         out = b.exec("g.dump('fw', g.firmware_path('/ram/sil/frames.bin', '/ram/sil', %d, True, True))\n"
@@ -700,6 +709,10 @@ def print_bench(results, header=True):
             step = r["locked"].get("full step")
             print()
             print_profile(r["profile"], step["mean"] if step else None)
+        if "op_costs" in r:
+            print("\n  instructions per operation (heap locked)")
+            for label, n in r["op_costs"].items():
+                print("  %-50s %6.0f" % (label, n))
 
 
 def _boards(text):
@@ -741,8 +754,11 @@ def main(argv=None):
     p.add_argument("--json", metavar="OUT", help="also write the figures as JSON")
     p.add_argument("--profile", action="store_true",
                    help="also the full step's per-function breakdown (heap locked)")
+    p.add_argument("--op-costs", action="store_true",
+                   help="also the instructions of single operations and calls (local, attribute, call, "
+                        "method call on each of the flight computer's objects)")
     p.add_argument("--items", metavar="NAMES",
-                   help="only these, comma-separated: %s, firmware (default: all)" % ", ".join(
+                   help="only these, comma-separated: %s, firmware, or none (default: all)" % ", ".join(
                        name for name, _call, _first in BENCH_ITEMS))
     sub.add_parser("check-tables", help="list ints outside +-8191 in constant tuples of shared/ and device/")
     args = parser.parse_args(argv)
@@ -774,7 +790,7 @@ def main(argv=None):
         items = None
         if args.items is not None:
             items = args.items.split(",")
-            known = [name for name, _call, _first in BENCH_ITEMS] + ["firmware"]
+            known = [name for name, _call, _first in BENCH_ITEMS] + ["firmware", "none"]
             for name in items:
                 if name not in known:
                     raise ArmError("unknown bench item %r (known: %s)" % (name, ", ".join(known)))
@@ -782,7 +798,7 @@ def main(argv=None):
         for board in _boards(args.board):
             for form in _forms(args.form):
                 results[(board, form)] = bench_form(board, form, args.micropython, not args.locked_only,
-                                                    args.profile, items)
+                                                    args.profile, items, args.op_costs)
                 print_bench({(board, form): results[(board, form)]}, header=len(results) == 1)
                 sys.stdout.flush()
         if args.json:

@@ -538,6 +538,127 @@ def dump_profile(result):
     print_ints("profile phases", phases)
 
 
+# -- what one bytecode operation costs -------------------------------------------------------------
+
+_G_ONE = 1
+
+
+def _cost_f0():
+    pass
+
+
+def _cost_f3(a, b, c):
+    return a
+
+
+class _CostProbe:
+    def noop(self):
+        pass
+
+
+def op_costs():
+    """Instructions (in SysTick cycles, ten operations per reading) of single operations and of
+    calls, heap locked: [(label, ticks for ten)]. The method call is a no-op method put on each of
+    the flight computer's classes, called on its real instance: its lookup misses the instance's
+    attribute table as a real method's does (the cost depends on how full the table is and where
+    the name's hash falls)."""
+    tc = _ticks
+    td = _diff
+    fc = FlightComputer(load_config())
+    x = 1
+    y = 7
+    arr = array("i", (0, 0))
+    out = []
+
+    def best(run):
+        b = 0x3FFFFFFF
+        for _ in range(5):
+            _lock()
+            try:
+                b = min(b, run())
+            finally:
+                _unlock()
+        return b
+
+    def empty():
+        t0 = tc()
+        return td(tc(), t0)
+
+    e = best(empty)
+
+    def local():
+        t0 = tc()
+        x; x; x; x; x; x; x; x; x; x  # noqa: B018, E702
+        return td(tc(), t0)
+
+    def glob():
+        t0 = tc()
+        _G_ONE; _G_ONE; _G_ONE; _G_ONE; _G_ONE; _G_ONE; _G_ONE; _G_ONE; _G_ONE; _G_ONE  # noqa: B018, E702
+        return td(tc(), t0)
+
+    kf = fc.kf
+
+    def attr():
+        t0 = tc()
+        kf.alt_q4; kf.alt_q4; kf.alt_q4; kf.alt_q4; kf.alt_q4; kf.alt_q4; kf.alt_q4; kf.alt_q4; kf.alt_q4; kf.alt_q4  # noqa: B018, E501, E702
+        return td(tc(), t0)
+
+    def store():
+        t0 = tc()
+        kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x  # noqa: E501, E702
+        return td(tc(), t0)
+
+    def subscr():
+        t0 = tc()
+        arr[1]; arr[1]; arr[1]; arr[1]; arr[1]; arr[1]; arr[1]; arr[1]; arr[1]; arr[1]  # noqa: B018, E702
+        return td(tc(), t0)
+
+    def add():
+        t0 = tc()
+        x + y; x + y; x + y; x + y; x + y; x + y; x + y; x + y; x + y; x + y  # noqa: B018, E702
+        return td(tc(), t0)
+
+    def mul():
+        t0 = tc()
+        x * y; x * y; x * y; x * y; x * y; x * y; x * y; x * y; x * y; x * y  # noqa: B018, E702
+        return td(tc(), t0)
+
+    def call0():
+        t0 = tc()
+        _cost_f0(); _cost_f0(); _cost_f0(); _cost_f0(); _cost_f0(); _cost_f0(); _cost_f0(); _cost_f0(); _cost_f0(); _cost_f0()  # noqa: E501, E702
+        return td(tc(), t0)
+
+    def call3():
+        t0 = tc()
+        _cost_f3(x, x, x); _cost_f3(x, x, x); _cost_f3(x, x, x); _cost_f3(x, x, x); _cost_f3(x, x, x); _cost_f3(x, x, x); _cost_f3(x, x, x); _cost_f3(x, x, x); _cost_f3(x, x, x); _cost_f3(x, x, x)  # noqa: E501, E702
+        return td(tc(), t0)
+
+    for label, run in (("local variable", local), ("global variable", glob), ("attribute (cached)", attr),
+                       ("attribute store", store), ("array item", subscr), ("add", add), ("multiply", mul),
+                       ("function call, no argument", call0), ("function call, 3 arguments", call3)):
+        out.append((label, best(run) - e))
+    for name, o in (("FlightComputer", fc), ("Detector", fc.det), ("Kalman", fc.kf),
+                    ("SensorHealth", fc.health), ("PadCalibration", fc.pad), ("Arbitration", fc.arb),
+                    ("VelocityRule", fc.det.rule)):
+        cls = type(o)
+        cls.zz_cost_noop = _CostProbe.noop
+
+        def meth(o=o):
+            t0 = tc()
+            o.zz_cost_noop(); o.zz_cost_noop(); o.zz_cost_noop(); o.zz_cost_noop(); o.zz_cost_noop(); o.zz_cost_noop(); o.zz_cost_noop(); o.zz_cost_noop(); o.zz_cost_noop(); o.zz_cost_noop()  # noqa: E501, E702
+            return td(tc(), t0)
+
+        out.append(("method call on %s (%d attributes)" % (name, len(o.__dict__)), best(meth) - e))
+        del cls.zz_cost_noop
+    return out
+
+
+def dump_op_costs():
+    """Print op_costs() as lines the host parses (``opcost TICKS LABEL``)."""
+    for label, ticks in op_costs():
+        print("opcost %d %s" % (ticks, label))
+
+
 def _alt_loop(to_alt_mm, n, p_lo, p_span, ticks, states):
     tc = _ticks
     td = _diff
