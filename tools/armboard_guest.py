@@ -454,8 +454,7 @@ def _p_loop(fc, dts, alts, accs, ticks, phases, k, incl_ph, self_ph, calls_ph, s
         fc.step(dts[i], alts[i], accs[i] + _ONE_G_MMPS2, HAVE_BOTH)
         t1 = tc()
         ticks[i] = td(t1, t0)
-        s = fc.state
-        ph = PAD if s == _FC_PAD else (BOOST if s == _FC_BOOST else (COAST if s < _FC_DROGUE else DESCENT))
+        ph = _phase(fc.state)
         phases[i] = ph
         base = ph * (k + 1)  # each phase: the functions of PROFILE, then the step
         for j in range(k):
