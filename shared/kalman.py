@@ -42,7 +42,7 @@ _G_Q4 = const(156912)  # standard gravity, 9806.65 mm/s^2 * 16
 _INNOV_LIMIT = const(0x7FFFFFF)  # 2**27 - 1 (1/16 mm): 8.4 km, inside _mul_gain's domain
 
 
-# MicroPython cost (docs/BENCHMARKS.md, "Per-sample cost"): a method call costs about three times
+# MicroPython cost (docs/BENCHMARKS.md, "Per-sample cost"): a method call costs up to three times
 # a module-level function call, every bytecode operation about a hundred instructions on a
 # Cortex-M0. So the helpers of the corrections below are module-level functions taking the filter,
 # and each does its work in as few operations as the exact arithmetic allows.

@@ -235,7 +235,7 @@ class PadCalibration:
 def _add_alt(pad, alt_sum, n, first):
     """Add barometric offsets to the block's sums (and to all of them before the first block is
     complete). A module-level function: it is called on most pad samples, and on MicroPython a
-    method call costs about three times a function call."""
+    method call costs up to three times a function call."""
     pad._blk_alt += alt_sum
     pad._blk_alt_n += n
     if first:
