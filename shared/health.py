@@ -62,6 +62,8 @@ class SensorHealth:
         self.has_baro = config.has_baro
         self.has_accel = config.has_accel
         self.accel_limit_mmps2 = config.accel_limit_mmps2  # 0: full scale unknown, no check
+        # a held peak below this is not the full scale: half the configured range (0: unknown)
+        self._early_clip_mmps2 = config.accel_limit_mmps2 >> 1
         self.lost_ms = config.sensor_lost_ms
         self.accel_clipped = 0  # count of clipped accelerometer readings
         self.baro_out_of_range = 0  # count of barometric readings outside the table
@@ -142,11 +144,12 @@ class SensorHealth:
                 held = accel_mmps2 == self._acc_last and self._acc_seen
                 if not held:
                     self._acc_change_ms = now_ms
-                if in_flight and held and size >= self._acc_peak and size > _ONE_G_MMPS2:
-                    # held at the largest reading of the flight: the part's full scale, whatever
-                    # the configured range (an unknown range, or a part that clips early), once
-                    # held _CLIP_HOLD_MS (two equal readings at a noisy peak are chance); never
-                    # frozen
+                if (in_flight and held and size >= self._acc_peak and size > _ONE_G_MMPS2
+                        and size >= self._early_clip_mmps2):
+                    # held at the largest reading of the flight: the part's full scale (an
+                    # unknown range, or a part that clips early: not below half its configured
+                    # range), once held _CLIP_HOLD_MS (two equal readings at a noisy peak are
+                    # chance); never frozen
                     if now_ms - self._acc_change_ms >= _CLIP_HOLD_MS:
                         have &= HAVE_BARO
                         self.accel_clipped += 1

@@ -306,6 +306,21 @@ def test_a_reading_held_at_the_flights_peak_is_clipped_only_when_held(held_sampl
     assert not health.flags & HEALTH_ACCEL_STUCK
 
 
+def test_a_held_peak_far_below_the_configured_range_is_not_clipped():
+    # a 200 g part held at 15 g for 100 ms (a flat thrust, coarse steps at 50 Hz) has not
+    # reached its full scale; taken as clipped it voided the upper velocity bound and a +140 m
+    # mid-coast transient fired the drogue 1.5 s early (fault benchmark, m1670_3km)
+    config = load_config({"accel_range_g": 200})
+    health = SensorHealth(config)
+    health.start_watch(config)
+    readings = [140000 + 1000 * k for k in range(10)] + [150000] * 10 + [149000]
+    seen = False
+    for i, acc in enumerate(readings):
+        health.watch(20 * i, 100000 + 500 * i, acc, health.judge(0, acc, HAVE_BOTH), True)
+        seen = seen or health.clipped
+    assert not seen
+
+
 def test_accelerometer_frozen_flags_health():
     fl = flight(SUBSONIC_ROCKET, Faults(accel_frozen_at_s=1.0))  # in boost, at 20+ g
     out = run(fl, backup_drogue_s=round(fl.apogee_s + 3))
