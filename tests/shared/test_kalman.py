@@ -26,9 +26,9 @@ def test_mul_gain_is_the_rounded_product_and_stays_in_31_bits():
         assert _mul_gain(e, m, s) == (e * m + (1 << (s - 1))) >> s  # exact round half up
         # every intermediate, as computed inside _mul_gain
         p = (e >> 14) * m
-        r = s - 14
-        low = ((p & ((1 << r) - 1)) << 14) + (e & 0x3FFF) * m + (1 << (s - 1))
-        assert abs(p) < SMALL_INT and abs(low) < SMALL_INT
+        low = (e & 0x3FFF) * m + (1 << (s - 1))
+        total = p + (low >> 14)
+        assert abs(p) < SMALL_INT and abs(low) < SMALL_INT and abs(total) < SMALL_INT
 
 
 @pytest.mark.parametrize("dt_us,prev_hz,rate,steps", [
