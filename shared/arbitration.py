@@ -92,6 +92,8 @@ class Arbitration:
         self._fbias = array("i", [0] * _HISTORY_SLOTS)
         self._margin = array("i", [0] * _HISTORY_SLOTS)
         self._slots = 0  # slots filled (saturates at _HISTORY_SLOTS)
+        self._win_vel = 0  # sums over the window's slots (see add_baro): track velocities (mm/s),
+        self._win_empty = 0  # slots without a barometric reading
         self._head = 0  # index of the newest slot
         self._slot_start_ms = 0
         self._alt_ref = 0  # the previous slot's mean: this slot's sums are offsets from it
@@ -193,6 +195,16 @@ class Arbitration:
         self._alt_ref = alt
         self._alt_sum = self._alt_n = 0
         self._slot_start_ms = now_ms
+        # running sums over the window's slots (the newest _WINDOW_SLOTS + 1): add the new slot,
+        # drop the one that left (re-summing the window cost 13k instructions per judgement)
+        self._win_vel += self.vel_mmps
+        self._win_empty += self._empty[head]
+        if self._slots > _WINDOW_SLOTS:
+            gone = head - _WINDOW_SLOTS - 1
+            if gone < 0:
+                gone += _HISTORY_SLOTS
+            self._win_vel -= self._vel[gone]
+            self._win_empty -= self._empty[gone]
         if self._slots < _HISTORY_SLOTS:
             self._slots += 1
         if self._slots > _WINDOW_SLOTS:
@@ -202,17 +214,9 @@ class Arbitration:
         oldest = head - _WINDOW_SLOTS
         if oldest < 0:
             oldest += _HISTORY_SLOTS
-        vel_sum = 0
-        empty = 0
-        i = oldest
-        for _ in range(_WINDOW_SLOTS + 1):
-            vel_sum += self._vel[i]
-            empty += self._empty[i]
-            i += 1
-            if i == _HISTORY_SLOTS:
-                i = 0
+        vel_sum = self._win_vel
         span_ms = self._t[head] - self._t[oldest]
-        if empty or span_ms <= 0:
+        if self._win_empty or span_ms <= 0:
             return
         rise_mm = _clamp(self._alt[head] - self._alt[oldest], _SLOT_STEP_LIMIT_MM)
         self.baro_rate_mmps = rise_mm * 1000 // span_ms
