@@ -2,7 +2,7 @@
 
 ``main.py`` calls ``main()``. Sequence (docs/FIRMWARE.md has the user's version):
 
-1. (boot.py already drove both pyro outputs low.) Read ``board.json`` and ``config.json``,
+1. (boot.py already drove every pyro output low.) Read ``board.json`` and ``config.json``,
    build the hardware; start-up errors are beeped, never raised.
 2. Reset check: if ``armed.flag`` exists the last session ended in a reset while armed. With a
    resume record of a flight in progress that the flight computer accepts, the flight resumes at
@@ -12,8 +12,8 @@
    needs the arming input turned on (after a power-on reset it may already be on; after any other
    reset it must be seen off first), or, on boards without one, ``main(arm="arm")``.
 4. Pad checks: sensors alive, pressure plausible, the accelerometer axis and magnitude about +1 g,
-   continuity on every channel that has a sense input, room for the log. Any failure: error beeps,
-   disarmed.
+   continuity on every channel that has a sense input (a backup channel: when configured), room
+   for the log. Any failure: error beeps, disarmed.
 5. Flight mode: Ctrl-C disabled (``micropython.kbd_intr(-1)``), watchdog running, ``armed.flag``
    written, log header written, then ``FlightLoop.run()`` until landed (or disarmed on the pad).
 6. Landed: log flushed and closed, Ctrl-C restored, the maximum altitude beeped in digits forever
@@ -240,11 +240,12 @@ class App:
                     problems.append((status.ERR_ONE_G, "accelerometer axis %s reads %.2f g: board not "
                                      "upright or mounted inverted" % (b["accel"]["axis"], axis / G_MMPS2)))
         continuity = {}
-        for i in range(2):
-            name = boardmod.CHANNELS[i]
-            c = hw.pyro.continuity(i)
+        for name in boardmod.channels(b):
+            c = hw.pyro.continuity(boardmod.CHANNELS.index(name))
             continuity[name] = ("no sense input", "open", "connected")[c + 1]
-            if c == 0:
+            # a backup channel the configuration leaves off may stand empty
+            enabled = name not in boardmod.BACKUP_KEYS or self.config.values[boardmod.BACKUP_KEYS[name]]
+            if c == 0 and enabled:
                 problems.append((status.ERR_CONTINUITY, "%s igniter: no continuity" % name))
         self.pad_figures["continuity"] = continuity  # reported per channel, logged in the header
         supply_mv = {}

@@ -45,19 +45,28 @@ def main(path="bench.bin", speed=1.0, igniter=None, board_path="board.json", ver
     import json
     from time import sleep_us, ticks_add, ticks_diff, ticks_us
 
+    from device.board import CHANNELS, channels
     from device.groundtest import LIVE, Refused, bench_hardware, refuse_unless_idle
     from shared.config import load_config
-    from shared.flight import EVENT_NAMES, STATE_NAMES, FlightComputer
+    from shared.flight import (
+        EV_BACKUP_DROGUE,
+        EV_BACKUP_MAIN,
+        EV_DROGUE,
+        EV_MAIN,
+        EVENT_NAMES,
+        STATE_NAMES,
+        FlightComputer,
+    )
 
     b, pyro, arm = bench_hardware(board_path)
     events = []
     f = None
     try:
         refuse_unless_idle(b, arm)
-        for i in range(2):
-            if pyro.continuity(i) == 1 and igniter != LIVE:
+        for name in channels(b):
+            if pyro.continuity(CHANNELS.index(name)) == 1 and igniter != LIVE:
                 raise Refused("continuity shows an igniter connected on %s: use LEDs for a bench flight, "
-                              "or add igniter=%r" % (("drogue", "main")[i], LIVE))
+                              "or add igniter=%r" % (name, LIVE))
         f = open(path, "rb")
         head = f.read(16)
         if head[:8] != BENCH_MAGIC:
@@ -72,7 +81,7 @@ def main(path="bench.bin", speed=1.0, igniter=None, board_path="board.json", ver
         t_us = 0
         deadline = ticks_us()
         i = 0
-        prev_d = prev_m = False
+        fires = ((EV_DROGUE, 0), (EV_MAIN, 1), (EV_BACKUP_DROGUE, 2), (EV_BACKUP_MAIN, 3))  # Pyro indices
         while i < n:
             got = f.readinto(buf)
             k = got // BENCH_REC_SIZE
@@ -90,14 +99,11 @@ def main(path="bench.bin", speed=1.0, igniter=None, board_path="board.json", ver
                                 break
                             sleep_us(d)
                 fc.step(dt, alt, acc, have)
-                pyro.drive(fc.pyro_drogue, fc.pyro_main)
-                if fc.pyro_drogue and not prev_d:
-                    pyro.guard(0, config.pulse_ms + 100)
-                if fc.pyro_main and not prev_m:
-                    pyro.guard(1, config.pulse_ms + 100)
-                prev_d = fc.pyro_drogue
-                prev_m = fc.pyro_main
+                pyro.drive(fc.pyro_drogue, fc.pyro_main, fc.pyro_backup_drogue, fc.pyro_backup_main)
                 if fc.events:
+                    for event, index in fires:
+                        if fc.events & event:
+                            pyro.guard(index, config.pulse_ms + 100)
                     for bit in range(len(EVENT_NAMES)):
                         if fc.events & (1 << bit):
                             events.append((i, EVENT_NAMES[bit], t_us / 1e6, fc.agl_mm / 1000))

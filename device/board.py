@@ -1,7 +1,8 @@
 """Board description (``board.json`` on the board): validation, and the hardware built from it.
 
 A board description is a JSON object naming the MCU, the pins of the two pyro channels (drogue,
-main) with optional continuity sense inputs, the optional arming input, the I2C bus and the sensor
+main) and of the optional backup channels (backup_drogue, backup_main) with optional continuity
+sense inputs, the optional arming input, the I2C bus and the sensor
 parts, the status LED and buzzer, the sample rate and the log buffer. ``validate(desc)`` checks it
 and returns a normalised copy, or raises ``BoardError`` with one line naming the key. It is
 portable: ``tools/deploy.py`` runs it on CPython before copying anything to the board, the app runs
@@ -39,7 +40,11 @@ GPIO_COUNT = {"rp2040": 30, "rp2350": 48, "esp32": 40, "esp32s3": 49, "esp32c3":
 SAMPLE_RATES_HZ = (10, 20, 25, 50, 100, 200)  # the rates of shared/gains_table.py
 BARO_PARTS = ("BMP388", "BMP390", "BMP280", "MS5611")
 ACCEL_PARTS = ("ADXL375", "ADXL345", "MPU6050", "LSM6DSO", "LSM6DSO32")
-CHANNELS = ("drogue", "main")
+# Pyro channels in output order (device/pyro.py indexes them so): the first two are required.
+CHANNELS = ("drogue", "main", "backup_drogue", "backup_main")
+REQUIRED_CHANNELS = 2
+# The configuration key that enables each backup channel (shared/config.py; 0 = off).
+BACKUP_KEYS = {"backup_drogue": "backup_drogue_delay_s", "backup_main": "backup_main_m"}
 AXES = {"+x": (0, 1), "-x": (0, -1), "+y": (1, 1), "-y": (1, -1), "+z": (2, 1), "-z": (2, -1)}
 
 _TOP_KEYS = ("board", "mcu", "description", "reset_glitch_pins", "reserved_pins", "input_only_pins",
@@ -122,7 +127,9 @@ def validate(desc):
     out["pyro"] = {}
     for ch in CHANNELS:
         if ch not in pyro:
-            raise BoardError("board: pyro.%s is missing (both channels need a pin)" % ch)
+            if CHANNELS.index(ch) < REQUIRED_CHANNELS:
+                raise BoardError("board: pyro.%s is missing (both channels need a pin)" % ch)
+            continue  # a backup channel the board does not have
         c = _obj(pyro[ch], "pyro." + ch, ("pin", "sense"))
         pin = _int(c.get("pin"), "pyro.%s.pin" % ch, 0, ngpio - 1)
         if pin in glitch:
@@ -212,9 +219,11 @@ def validate(desc):
             "pin": use(_int(a.get("pin"), "supply.%s.pin" % name, 0, ngpio - 1), "supply." + name, False),
             "full_scale_mv": _int(a.get("full_scale_mv"), "supply.%s.full_scale_mv" % name, 100, 100000),
             "min_mv": _int(a.get("min_mv"), "supply.%s.min_mv" % name, 0, 100000)}
-    timers = desc.get("timers", [-1, -1])
-    if not isinstance(timers, list) or len(timers) != 2:
-        raise BoardError("board: timers must be two hardware timer ids [drogue, main] (-1: virtual)")
+    names = channels(out)
+    timers = desc.get("timers", [-1] * len(names))
+    if not isinstance(timers, list) or len(timers) != len(names):
+        raise BoardError("board: timers must be %d hardware timer ids [%s] (-1: virtual), one per pyro "
+                         "channel" % (len(names), ", ".join(names)))
     out["timers"] = [_int(t, "timers[]", -1, 15) for t in timers]
     if mcu.startswith("esp32") and -1 in out["timers"]:
         raise BoardError("board: timers: the %s has no virtual timer; use hardware ids such as [0, 1]" % mcu)
@@ -236,6 +245,11 @@ def validate(desc):
 
 def check_with_config(board, config):
     """Cross-check a validated board with a ``shared.config.Config``: the sensors must exist."""
+    for ch in BACKUP_KEYS:
+        key = BACKUP_KEYS[ch]
+        if config.values[key] and ch not in board["pyro"]:
+            raise BoardError("board: config %s = %r needs pyro.%s, but the board has no such channel"
+                             % (key, config.values[key], ch))
     sensors = config.values["sensors"]
     if sensors in ("both", "baro") and board["baro"] is None:
         raise BoardError("board: config sensors = %r needs a barometer, but the board has none" % sensors)
@@ -258,9 +272,14 @@ def load(path="board.json"):
     return validate(desc)
 
 
+def channels(board):
+    """The pyro channels this validated board has, in CHANNELS order."""
+    return [ch for ch in CHANNELS if ch in board["pyro"]]
+
+
 def pyro_pins_text(board):
     """The one-line file boot.py reads before anything else: the pyro pin numbers."""
-    return " ".join([str(board["pyro"][ch]["pin"]) for ch in CHANNELS]) + "\n"
+    return " ".join([str(board["pyro"][ch]["pin"]) for ch in channels(board)]) + "\n"
 
 
 def check_pyro_pins_file(board, path="pyro_pins.txt"):
@@ -275,7 +294,7 @@ def check_pyro_pins_file(board, path="pyro_pins.txt"):
         pins = sorted([int(p) for p in text.split()])
     except ValueError:
         return "board: %s is not a list of pin numbers: %r" % (path, text[:40])
-    want = sorted([board["pyro"][ch]["pin"] for ch in CHANNELS])
+    want = sorted([board["pyro"][ch]["pin"] for ch in channels(board)])
     if pins != want:
         return "board: %s names pins %s, board.json's pyro pins are %s; run tools/deploy.py" % (
             path, pins, want)

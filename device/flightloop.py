@@ -43,7 +43,19 @@ import micropython
 from device import flightlog
 from device.flightlog import BLOCK_RECORDS
 from shared.altitude import pressure_to_alt_mm
-from shared.flight import DROGUE, EV_DROGUE, EV_LANDED, EV_LAUNCH, EV_MAIN, LANDED, MAIN, PAD, FlightComputer
+from shared.flight import (
+    DROGUE,
+    EV_BACKUP_DROGUE,
+    EV_BACKUP_MAIN,
+    EV_DROGUE,
+    EV_LANDED,
+    EV_LAUNCH,
+    EV_MAIN,
+    LANDED,
+    MAIN,
+    PAD,
+    FlightComputer,
+)
 
 PAD_EPOCH_S = flightlog.PAD_EPOCH_S
 MAX_MISSED = 1000  # deadlines counted per wake-up at most (keeps ticks arithmetic small)
@@ -170,12 +182,16 @@ class FlightLoop:
         sh = self.shadow
         if sh is not None:
             sh.step(dt_us, alt, acc, have)
-        self.pyro.drive(fc.pyro_drogue, fc.pyro_main)
+        self.pyro.drive(fc.pyro_drogue, fc.pyro_main, fc.pyro_backup_drogue, fc.pyro_backup_main)
         flags = 0
         if fc.pyro_drogue:
             flags = flightlog.FLAG_PYRO_DROGUE
         if fc.pyro_main:
             flags |= flightlog.FLAG_PYRO_MAIN
+        if fc.pyro_backup_drogue:
+            flags |= flightlog.FLAG_PYRO_BACKUP_DROGUE
+        if fc.pyro_backup_main:
+            flags |= flightlog.FLAG_PYRO_BACKUP_MAIN
         e = s.baro_errors + s.accel_errors
         if e != self._last_err:
             self._last_err = e
@@ -192,7 +208,8 @@ class FlightLoop:
         if work > self.worst_work_us:
             self.worst_work_us = work
         kf = fc.kf
-        self.log.record(dt_us, p, acc, kf.alt_q4, kf.vel_q4, kf.acc_q4, have, fc.state, fc.events, flags,
+        self.log.record(dt_us, p, acc, kf.alt_q4, kf.vel_q4, kf.acc_q4, have, fc.state,
+                        fc.events & flightlog.EVENTS_MASK, flags,
                         s.temp_cdeg, work if work < 65535 else 65535)
         self.status.update(ticks_ms())
         self.samples += 1
@@ -214,6 +231,10 @@ class FlightLoop:
                 self.pyro.guard(0, self.cfg.pulse_ms + GUARD_MARGIN_MS)
             if ev & EV_MAIN:
                 self.pyro.guard(1, self.cfg.pulse_ms + GUARD_MARGIN_MS)
+            if ev & EV_BACKUP_DROGUE:
+                self.pyro.guard(2, self.cfg.pulse_ms + GUARD_MARGIN_MS)
+            if ev & EV_BACKUP_MAIN:
+                self.pyro.guard(3, self.cfg.pulse_ms + GUARD_MARGIN_MS)
             if ev & EV_LANDED:
                 self.done = True
                 self.reason = "landed"
@@ -237,7 +258,8 @@ class FlightLoop:
                 self._disarm_since = None
         if state == PAD:
             self._pad_safe_point()
-        elif state >= DROGUE and not (fc.pyro_drogue or fc.pyro_main) and log.pending():
+        elif state >= DROGUE and not (fc.pyro_drogue or fc.pyro_main or fc.pyro_backup_drogue
+                                      or fc.pyro_backup_main) and log.pending():
             if state >= MAIN or fc.agl_mm > self.cfg.main_deploy_mm + FLUSH_MARGIN_MM:
                 log.write_one(self.logfile)
                 collect()

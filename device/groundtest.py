@@ -4,6 +4,8 @@ Over mpremote (the board is idle: mpremote interrupts main.py and soft-resets fi
 
     mpremote exec "from device.groundtest import info; info()"
     mpremote exec "from device.groundtest import fire; fire('drogue', 50, confirm='drogue')"
+    # a backup channel the board has (pyro.backup_drogue / pyro.backup_main in board.json):
+    mpremote exec "from device.groundtest import fire; fire('backup_main', 50, confirm='backup_main')"
     # with an igniter connected (continuity input shows it) a second confirmation is required:
     mpremote exec "from device.groundtest import fire; fire('drogue', 50, confirm='drogue',
                    igniter='live igniter')"          # (one line)
@@ -74,8 +76,8 @@ def info(board_path="board.json"):
     print("board %s (%s), sample rate %d Hz" % (b["board"], b["mcu"], b["sample_hz"]))
     print("arming input: %s" % ("none (command arming)" if arm is None else (
         "ON" if arm.value() == b["arm"]["active"] else "off")))
-    for i, name in enumerate(("drogue", "main")):
-        c = pyro.continuity(i)
+    for name in boardmod.channels(b):
+        c = pyro.continuity(boardmod.CHANNELS.index(name))
         print("%s: pin %d, continuity %s" % (name, b["pyro"][name]["pin"],
                                              {1: "connected", 0: "open", -1: "not sensed"}[c]))
     try:
@@ -98,17 +100,22 @@ def info(board_path="board.json"):
 
 
 def fire(channel, ms=50, confirm=None, igniter=None, board_path="board.json"):
-    """Pulse ``channel`` ('drogue' or 'main') for ``ms`` milliseconds. Returns the measured ms."""
+    """Pulse ``channel`` ('drogue', 'main', or a backup channel the board has: 'backup_drogue',
+    'backup_main') for ``ms`` milliseconds. Returns the measured ms."""
     import machine
 
-    if channel not in ("drogue", "main"):
-        raise Refused("channel must be 'drogue' or 'main'")
+    from device.board import CHANNELS, channels
+
+    if channel not in CHANNELS:
+        raise Refused("channel must be one of %s" % ", ".join(["'%s'" % c for c in CHANNELS]))
     if confirm != channel:
         raise Refused("confirm: type the channel name again, confirm=%r" % channel)
     if not isinstance(ms, int) or not 1 <= ms <= MAX_PULSE_MS:
         raise Refused("ms must be an integer from 1 to %d" % MAX_PULSE_MS)
     b, pyro, arm = bench_hardware(board_path)
-    index = 0 if channel == "drogue" else 1
+    if channel not in channels(b):
+        raise Refused("the board has no %s channel (board.json pyro.%s)" % (channel, channel))
+    index = CHANNELS.index(channel)
     wdt = None
     try:
         refuse_unless_idle(b, arm)

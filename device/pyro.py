@@ -1,9 +1,11 @@
-"""Pyro outputs (drogue, main): drive, continuity sense, and a hardware bound on every pulse.
+"""Pyro outputs (drogue, main, and the optional backup_drogue, backup_main): drive, continuity
+sense, and a hardware bound on every pulse.
 
-``Pyro(machine, board)`` drives both outputs low as it takes them (boot.py already did, in its
-first lines). ``drive(drogue, main)`` sets the levels the state machine asks for; it is called once
-per sample and allocates nothing. ``guard(index, ms)`` arms a one-shot hardware timer that drives
-that output low after ``ms`` whatever the code is doing (a flight loop stuck in a driver, a
+``Pyro(machine, board)`` drives every output low as it takes it (boot.py already did, in its
+first lines). ``drive(drogue, main, backup_drogue, backup_main)`` sets the levels the state machine
+asks for; it is called once per sample and allocates nothing; a backup channel the board does not
+have is never driven (``has(index)`` is False). ``guard(index, ms)`` arms a one-shot hardware
+timer that drives that output low after ``ms`` whatever the code is doing (a flight loop stuck in a driver, a
 Ctrl-C over mpremote: a GPIO keeps its level when the code that set it stops). The timer callback
 is built once in ``__init__`` (no allocation when it runs, so it is safe as a hard interrupt).
 
@@ -14,7 +16,9 @@ sense input reads above ``threshold_u16``. See docs/WIRING.md for the circuits.
 
 DROGUE = 0
 MAIN = 1
-NAMES = ("drogue", "main")
+BACKUP_DROGUE = 2
+BACKUP_MAIN = 3
+NAMES = ("drogue", "main", "backup_drogue", "backup_main")  # device/board.py CHANNELS
 
 
 def _cutter(pin):
@@ -29,20 +33,28 @@ class Pyro:
         Pin = machine.Pin
         self.machine = machine
         pins = []
+        present = []  # the board's channels, in NAMES order (the order of its timer ids)
         for name in NAMES:
-            pins.append(Pin(board["pyro"][name]["pin"], Pin.OUT, value=0))
+            if name in board["pyro"]:
+                pins.append(Pin(board["pyro"][name]["pin"], Pin.OUT, value=0))
+                present.append(name)
+            else:
+                pins.append(None)
         self.pins = tuple(pins)
         self.drogue_pin = pins[0]
         self.main_pin = pins[1]
+        self.backup_drogue_pin = pins[2]
+        self.backup_main_pin = pins[3]
         self.all_low()
-        self.level = [0, 0]
-        self._cut = (_cutter(pins[0]), _cutter(pins[1]))
-        self._timer_ids = board.get("timers", [-1, -1])
-        self._timers = [None, None]
+        self.level = [0, 0, 0, 0]
+        self._cut = tuple([None if p is None else _cutter(p) for p in pins])
+        ids = board.get("timers", [-1] * len(present))
+        self._timer_ids = [ids[present.index(name)] if name in present else -1 for name in NAMES]
+        self._timers = [None, None, None, None]
         self.guard_failures = 0
         senses = []
         for name in NAMES:
-            s = board["pyro"][name]["sense"]
+            s = board["pyro"][name]["sense"] if name in present else None
             if s is None:
                 senses.append(None)
             elif s["kind"] == "adc":
@@ -53,16 +65,33 @@ class Pyro:
 
     def all_low(self):
         for p in self.pins:
-            p.value(0)
+            if p is not None:
+                p.value(0)
 
-    def drive(self, drogue, main):
-        """Set both outputs (called every sample; allocation-free)."""
+    def drive(self, drogue, main, backup_drogue=False, backup_main=False):
+        """Set every output (called every sample; allocation-free). A backup level for a channel
+        the board does not have is ignored (device/board.py check_with_config refuses a
+        configuration that enables it)."""
         d = 1 if drogue else 0
         m = 1 if main else 0
         self.drogue_pin.value(d)
         self.main_pin.value(m)
         self.level[0] = d
         self.level[1] = m
+        p = self.backup_drogue_pin
+        if p is not None:
+            d = 1 if backup_drogue else 0
+            p.value(d)
+            self.level[2] = d
+        p = self.backup_main_pin
+        if p is not None:
+            m = 1 if backup_main else 0
+            p.value(m)
+            self.level[3] = m
+
+    def has(self, index):
+        """True when the board has pyro channel ``index`` (NAMES)."""
+        return self.pins[index] is not None
 
     def has_sense(self, index):
         return self._sense[index] is not None
@@ -78,7 +107,8 @@ class Pyro:
         return 1 if src.value() == ref else 0
 
     def continuity_bits(self):
-        """Bit 0 drogue connected, bit 1 main connected (channels without sense count as 0)."""
+        """Bit 0 drogue connected, bit 1 main connected (channels without sense count as 0; the
+        status beeps report the primaries, the app's pad check and ``info`` every channel)."""
         bits = 0
         for i in range(2):
             if self.continuity(i) == 1:
@@ -88,6 +118,8 @@ class Pyro:
     def guard(self, index, ms):
         """Arm the hardware bound on output ``index``: it goes low ``ms`` from now. Returns True
         when a timer is running (False: no timer on this port; the watchdog is the bound)."""
+        if self._cut[index] is None:
+            return False  # no such channel on this board
         machine = self.machine
         t = self._timers[index]
         try:

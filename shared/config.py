@@ -31,7 +31,18 @@ SCHEMA = {
     "apogee_lockout_s": (0, 0, 120, "s", "no apogee sooner than this after launch (0 = off)"),
     "backup_drogue_s": (0, 0, 600, "s",
         "drogue fires this long after launch if apogee was not detected (0 = off)"),
-    "pulse_ms": (500, 10, 5000, "ms", "how long a pyro output stays on"),
+    "pulse_ms": (500, 10, 5000, "ms", "how long a pyro output stays on (each channel its own pulse)"),
+    # Backup channels (a second charge per deployment; docs/CONFIG.md "Backup charges"): each
+    # obeys the primaries' proof of flight, fires at most once, and only after its primary fired
+    "backup_drogue_delay_s": (0, 0, 30, "s",
+        "the backup drogue channel fires this long after the drogue channel fired (0 = no backup "
+        "drogue; not the drogue's own timer backup_drogue_s)"),
+    "backup_main_m": (0, 0, 5000, "m AGL",
+        "the backup main channel fires when the descending rocket is at or below this, after the "
+        "main fired (0 = no backup main); below main_deploy_m"),
+    "backup_main_delay_s": (1, 0.1, 60, "s",
+        "the backup main never fires sooner than this after the main; without a usable barometer "
+        "it fires this long after the main"),
     "launch_accel_mps2": (20, 5, 500, "m/s^2",
         "boost: acceleration above 1 g sustained for launch_accel_time_s"),
     "launch_accel_time_s": (0.1, 0.02, 2, "s", "how long the boost acceleration must be sustained"),
@@ -118,6 +129,9 @@ class Config:
         self.apogee_lockout_ms = int(v["apogee_lockout_s"] * 1000)
         self.backup_drogue_ms = int(v["backup_drogue_s"] * 1000)
         self.pulse_ms = int(v["pulse_ms"])
+        self.backup_drogue_delay_ms = int(v["backup_drogue_delay_s"] * 1000)
+        self.backup_main_mm = int(v["backup_main_m"] * 1000)
+        self.backup_main_delay_ms = int(v["backup_main_delay_s"] * 1000)
         self.launch_accel_mmps2 = int(v["launch_accel_mps2"] * 1000)
         self.launch_accel_ms = int(v["launch_accel_time_s"] * 1000)
         self.launch_height_mm = int(v["launch_height_m"] * 1000)
@@ -186,6 +200,11 @@ def load_config(values=None):
     if 0 < merged["main_deploy_m"] < MAIN_DEPLOY_MIN_M:
         raise ConfigError("config: main_deploy_m = %r is out of range: allowed 0 (no main) or %g to %g m AGL"
                           % (merged["main_deploy_m"], MAIN_DEPLOY_MIN_M, SCHEMA["main_deploy_m"][2]))
+    backup_main = merged["backup_main_m"]
+    if backup_main and not MAIN_DEPLOY_MIN_M <= backup_main < merged["main_deploy_m"]:
+        raise ConfigError("config: backup_main_m = %r is out of range: allowed 0 (no backup main) or "
+                          "%g m AGL to below main_deploy_m = %r" % (backup_main, MAIN_DEPLOY_MIN_M,
+                                                                    merged["main_deploy_m"]))
     if merged["backup_drogue_s"] and merged["backup_drogue_s"] < merged["apogee_lockout_s"]:
         raise ConfigError("config: backup_drogue_s = %r fires before apogee_lockout_s = %r ends" % (
             merged["backup_drogue_s"], merged["apogee_lockout_s"]))

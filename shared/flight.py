@@ -16,7 +16,8 @@ flight; call ``step()`` once per sample with integer readings:
   without a reading of one sensor holds that sensor's last verdict.
 
 After ``step()``: ``state``, ``events`` (bit mask of what happened at this sample),
-``pyro_drogue`` / ``pyro_main`` (output levels to drive now), ``agl_mm``, ``vel_mmps``.
+``pyro_drogue`` / ``pyro_main`` / ``pyro_backup_drogue`` / ``pyro_backup_main`` (output levels to
+drive now), ``agl_mm``, ``vel_mmps``.
 
 Each sample flows one way: sensor health (``shared/health.py``) -> pad calibration on the pad
 (``shared/padcal.py``) -> the filter (``shared/detector.py``) -> the transition of the current
@@ -45,6 +46,11 @@ Transitions (``_transition``), each branch opening with its rule:
 | | | main_deploy_m 0: never (no main, a single deployment) | |
 | main | landed | altitude within a band over a window | `landed_alt_m` |
 | drogue | landed | the same, when there is no main (main_deploy_m 0) | `landed_alt_m` |
+| drogue, | (backup | proven, `backup_drogue_delay_s` after the drogue fired | `backup_drogue_delay_s` |
+| main | drogue) | | |
+| main | (backup | proven, `backup_main_delay_s` after the main fired at the | `backup_main_m`, |
+| | main) | earliest; descending at or below `backup_main_m` (no | `backup_main_delay_s` |
+| | | usable barometer: at once) | |
 
 Apogee itself is declared by the filter's rule only while the barometer is in use (``mode``)
 and ``_apogee_enabled()``: coast, proven,
@@ -56,8 +62,12 @@ Without a usable barometer (``mode`` accel only) apogee is the accelerometer's h
 velocity reaching zero (``_accel_only_apogee``); with no usable sensor, only the backup timer.
 The decision mode and the barometer's exclusion come from ``_arbitrate`` (docs/DESIGN.md D16).
 
+The backup channels (``_backup_rule``, off by default) change no state: each fires at most once,
+only after its primary fired and never on the ground (landed).
+
 Safety (docs/DESIGN.md D1): every firing path (apogee, apogee delay, backup timer,
-main) requires ``flight_proven``: a boost sustained for ``launch_accel_time_s`` *and* a climb of
+main, the backup channels) requires ``flight_proven``: a boost sustained for
+``launch_accel_time_s`` *and* a climb of
 ``proof_climb_m`` that the barometer holds for a second (barometer-only boards: that climb and
 ``proof_speed_mps``; accelerometer-only boards: the boost, and that speed and climb integrated
 from it). Apogee
@@ -109,7 +119,12 @@ EV_MAIN = const(16)
 EV_LANDED = const(32)
 EV_HEALTH = const(64)  # a sensor's health changed (shared.health.HEALTH_* in health.flags)
 EV_MODE = const(128)  # the sensors the decisions rest on changed (``mode``, MODE_NAMES)
-EVENT_NAMES = ("launch", "burnout", "apogee", "drogue", "main", "landed", "health", "mode")
+# the backup channels fired (beyond the log record's event byte: the log keeps their output levels,
+# shared/logformat.py FLAG_PYRO_BACKUP_*)
+EV_BACKUP_DROGUE = const(256)
+EV_BACKUP_MAIN = const(512)
+EVENT_NAMES = ("launch", "burnout", "apogee", "drogue", "main", "landed", "health", "mode",
+               "backup_drogue", "backup_main")
 
 # Decision modes (``mode``): which sensors are usable (docs/DESIGN.md, "Sensor arbitration").
 MODE_TIMER = const(0)  # neither: the backup timers only
@@ -150,7 +165,7 @@ _STEADY_RATE_MMPS = const(3000)
 _STEADY_MIN_DS = const(20)  # 2 s of steady descent give its mean rate
 
 _RECORD_FORMAT = "<IIII"
-_RECORD_VERSION = const(2)
+_RECORD_VERSION = const(3)
 STATE_RECORD_SIZE = const(16)  # struct.calcsize(_RECORD_FORMAT): the RP2040's four scratch words
 _RESUME_SETTLE_MS = const(2000)
 _FALSE_LAUNCH_MS = const(10000)  # a launch not proven within this, near the pad, was not one
@@ -257,10 +272,16 @@ class FlightComputer:
         self.drogue_due_ms = -1
         self.drogue_fired_ms = -1
         self.main_fired_ms = -1
+        self.backup_drogue_fired_ms = -1
+        self.backup_main_fired_ms = -1
         self.pyro_drogue = False
         self.pyro_main = False
+        self.pyro_backup_drogue = False
+        self.pyro_backup_main = False
         self._drogue_off_ms = 0
         self._main_off_ms = 0
+        self._backup_drogue_off_ms = 0
+        self._backup_main_off_ms = 0
         self._land_start_ms = 0
         self._land_min_mm = 0
         self._land_max_mm = 0
@@ -603,8 +624,10 @@ class FlightComputer:
                 main = True  # it never rose clear of the main altitude: do not land on the drogue
             if main:
                 self._fire_main()
+            self._backup_rule()
             self._landing_rule()
         elif state == MAIN:
+            self._backup_rule()
             self._landing_rule()
 
     def _launch(self, by_height):
@@ -684,6 +707,36 @@ class FlightComputer:
         self.events |= EV_MAIN
         self.state = MAIN
 
+    def _backup_rule(self):
+        """The backup channels (drogue and main states: never on the pad, in the ascent or landed),
+        each proven, at most once, after its primary fired: the backup drogue
+        ``backup_drogue_delay_s`` after the drogue; the backup main ``backup_main_delay_s`` after
+        the main at the earliest, then descending at or below ``backup_main_m`` (without a usable
+        barometer: at once)."""
+        cfg = self.cfg
+        if (cfg.backup_drogue_delay_ms and self.backup_drogue_fired_ms < 0 and self.flight_proven
+                and self.drogue_fired_ms >= 0
+                and self.now_ms - self.drogue_fired_ms >= cfg.backup_drogue_delay_ms):
+            self._fire_backup_drogue()
+        if (cfg.backup_main_mm and self.backup_main_fired_ms < 0 and self.flight_proven
+                and self.main_fired_ms >= 0
+                and self.now_ms - self.main_fired_ms >= cfg.backup_main_delay_ms
+                and (not self.mode & MODE_BARO
+                     or (self.vel_mmps < 0 and self.agl_mm <= cfg.backup_main_mm))):
+            self._fire_backup_main()
+
+    def _fire_backup_drogue(self):
+        self.backup_drogue_fired_ms = self.now_ms
+        self._backup_drogue_off_ms = self.now_ms + self.cfg.pulse_ms
+        self.pyro_backup_drogue = True
+        self.events |= EV_BACKUP_DROGUE
+
+    def _fire_backup_main(self):
+        self.backup_main_fired_ms = self.now_ms
+        self._backup_main_off_ms = self.now_ms + self.cfg.pulse_ms
+        self.pyro_backup_main = True
+        self.events |= EV_BACKUP_MAIN
+
     def _landing_rule(self):
         """Landed: in MAIN (or in DROGUE with no main), the altitude stays within ``landed_alt_m``
         over a window."""
@@ -707,6 +760,10 @@ class FlightComputer:
             self.pyro_drogue = False
         if self.pyro_main and self.now_ms >= self._main_off_ms:
             self.pyro_main = False
+        if self.pyro_backup_drogue and self.now_ms >= self._backup_drogue_off_ms:
+            self.pyro_backup_drogue = False
+        if self.pyro_backup_main and self.now_ms >= self._backup_main_off_ms:
+            self.pyro_backup_main = False
 
     # Sensor arbitration and degraded modes (docs/DESIGN.md, "Sensor arbitration").
 
@@ -803,7 +860,8 @@ class FlightComputer:
     # packing allocates nothing on a 32-bit board:
     #   w0: version (3) | state (3) | flags (4: launched, proven, drogue fired, main fired)
     #       | errors (5) | check (15)
-    #   w1: time since launch in 10 ms (22: 11.6 h) | pad 1 g - 9807 in 16 mm/s^2, +128 (8)
+    #   w1: time since launch in 10 ms (20: 2.9 h) | flags (2: backup drogue fired, backup main
+    #       fired) | pad 1 g - 9807 in 16 mm/s^2, +128 (8)
     #   w2: ground altitude in 0.5 m, +2**17 (18: +-65 km) | velocity in m/s, +2048 (12)
     #   w3: maximum altitude above the pad in 2 m (14: 32 km) | drogue time since launch in
     #       0.1 s (16; fired, or due after an apogee; 0xFFFF none)
@@ -818,9 +876,10 @@ class FlightComputer:
         """Pack the flight's state into ``buf`` (bytearray of STATE_RECORD_SIZE); no allocation."""
         flags = (self.launched | self.flight_proven << 1 | (self.drogue_fired_ms >= 0) << 2
                  | (self.main_fired_ms >= 0) << 3)
-        t10 = _field((self.now_ms - self.launch_ms) // 10, 0x3FFFFF)
+        t10 = _field((self.now_ms - self.launch_ms) // 10, 0xFFFFF)
         one_g = _field((self.one_g_mmps2 - G_MMPS2) // 16 + 128, 0xFF)
-        w1 = t10 << 8 | one_g
+        backups = (self.backup_drogue_fired_ms >= 0) | (self.backup_main_fired_ms >= 0) << 1
+        w1 = t10 << 10 | backups << 8 | one_g
         ground = _field(self.ground_alt_mm // 500 + 0x20000, 0x3FFFF)
         vel = _field(self.vel_mmps // 1000 + 2048, 0xFFF)
         w2 = ground << 12 | vel
@@ -846,7 +905,7 @@ class FlightComputer:
         self.launched = bool(flags & 1)
         self.flight_proven = bool(flags & 2)
         self.launch_ms = 0
-        self.now_ms = (w1 >> 8) * 10
+        self.now_ms = (w1 >> 10) * 10
         self.burnout_ms = self.now_ms
         self.one_g_mmps2 = G_MMPS2 + ((w1 & 0xFF) - 128) * 16
         self.ground_alt_mm = ((w2 >> 12) - 0x20000) * 500
@@ -862,6 +921,10 @@ class FlightComputer:
             self.apogee_ms = self.drogue_due_ms - self.cfg.apogee_delay_ms
         if flags & 8:
             self.main_fired_ms = self.now_ms
+        if w1 & 0x100:
+            self.backup_drogue_fired_ms = self.now_ms
+        if w1 & 0x200:
+            self.backup_main_fired_ms = self.now_ms
         pad = self.pad
         pad.ground_fixed = True
         pad.ground_alt_mm = self.ground_alt_mm

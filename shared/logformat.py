@@ -21,6 +21,12 @@ Record (REC_FMT, 32 bytes, little-endian): what ``FlightComputer.step()`` was gi
 ``accel_mmps2``, ``have``) and what it decided (filter ``alt_q4``/``vel_q4``/``acc_q4``,
 ``state``, ``events``), plus ``flags`` (FLAG_*), the barometer temperature (0.01 degC) and the
 work time of the sample (read + step + outputs, us, saturated at 65535).
+
+``events`` holds the low 8 bits of ``FlightComputer.events`` (launch .. mode). The backup channels'
+events (bits 8 and 9) do not fit that byte: the record keeps their output levels in
+FLAG_PYRO_BACKUP_DROGUE / FLAG_PYRO_BACKUP_MAIN, and a backup fired on the first record whose
+flag is set (a pulse lasts at least 10 ms: pulse_ms). Logs written before these flags existed
+never set them: they decode as before.
 """
 
 import struct
@@ -52,6 +58,9 @@ FLAG_PYRO_MAIN = 2
 FLAG_SENSOR_ERROR = 4  # a sensor read failed in this sample
 FLAG_MISSED = 8  # dt_us covers missed sample deadlines
 FLAG_RESUMED = 16  # first sample after a reset in flight (the state was restored)
+FLAG_PYRO_BACKUP_DROGUE = 32  # output level after this sample
+FLAG_PYRO_BACKUP_MAIN = 64
+EVENTS_MASK = 0xFF  # the events a record's byte holds
 
 
 def block_crc_ok(block):

@@ -16,7 +16,9 @@ epochs"), and writes them as a flight CSV (docs/FLIGHT_CSV.md) that replays thro
 - ``accel_mps2``: the board's mm/s^2 reading / 1000 (exact at 4 decimals), empty when missing;
 - ``board_state``, ``board_events``, ``board_flags``, ``board_alt_q4``, ``board_vel_q4``,
   ``board_acc_q4``: what the board decided (the filter columns are empty for the first rows, logged
-  while this flight computer was still the pad's "shadow"), ``temp_c``, ``board_work_us``.
+  while this flight computer was still the pad's "shadow"; ``board_events`` holds the backup
+  channels' events too, restored from their output flags by ``board_events``), ``temp_c``,
+  ``board_work_us``.
 
 It also writes the board's configuration next to the CSV (``FLIGHT.config.json``): replay with
 ``python -m desktop replay FLIGHT.csv --config FLIGHT.config.json``. ``--check`` steps the
@@ -36,7 +38,7 @@ from desktop.errors import DesktopError
 from desktop.io.files import check_output_file, read_bytes
 from shared import logformat as fl
 from shared.altitude import pressure_to_alt_mm
-from shared.flight import EVENT_NAMES, STATE_NAMES, FlightComputer
+from shared.flight import EV_BACKUP_DROGUE, EV_BACKUP_MAIN, EVENT_NAMES, STATE_NAMES, FlightComputer
 
 _REC_DTYPE = np.dtype([
     ("dt_us", "<u4"), ("pressure_q4_pa", "<i4"), ("accel_mmps2", "<i4"), ("alt_q4", "<i4"),
@@ -220,6 +222,23 @@ def final_rows(log):
     return r, own, t_us
 
 
+# a backup channel's event is not in the record's event byte: its output flag rises with it
+_BACKUP_FLAGS = ((fl.FLAG_PYRO_BACKUP_DROGUE, EV_BACKUP_DROGUE), (fl.FLAG_PYRO_BACKUP_MAIN, EV_BACKUP_MAIN))
+
+
+def board_events(events, flags):
+    """The flight computer's events per record: the record's event byte, and each backup channel's
+    event on the record where its output flag rises (shared/logformat.py). Old logs never set
+    those flags: their events are the byte."""
+    out = np.asarray(events).astype(np.int64)
+    flags = np.asarray(flags).astype(np.int64)
+    for flag, event in _BACKUP_FLAGS:
+        on = flags & flag != 0
+        rise = on & ~np.concatenate([[False], on[:-1]])
+        out = out | np.where(rise, event, 0)
+    return out
+
+
 def to_columns(log):
     """The flight-CSV columns (dict) and metadata for the rows of the final flight computer."""
     r, own, t_us = final_rows(log)
@@ -245,7 +264,7 @@ def to_columns(log):
         "pressure_pa": pressure,
         "accel_mps2": accel,
         "board_state": r["state"].astype(np.int64),
-        "board_events": r["events"].astype(np.int64),
+        "board_events": board_events(r["events"], r["flags"]),
         "board_flags": r["flags"].astype(np.int64),
         "board_alt_q4": owned("alt_q4"),
         "board_vel_q4": owned("vel_q4"),
@@ -291,13 +310,17 @@ def _names(events):
     return "+".join(name for bit, name in enumerate(EVENT_NAMES) if events & (1 << bit)) or "none"
 
 
+_PYRO_FLAGS = (fl.FLAG_PYRO_DROGUE, fl.FLAG_PYRO_MAIN, fl.FLAG_PYRO_BACKUP_DROGUE, fl.FLAG_PYRO_BACKUP_MAIN)
+
+
 def differences(inputs, board, config, ground_alt_mm=None):
     """Yield ``(row, description)`` for every row whose step through a FlightComputer with
     ``config`` differs from what the board logged: state, events, pyro outputs, and the filter
     state where the board logged it (not NaN).
 
     ``inputs``: the integer ``(dt_us, alt_mm, accel_mmps2, have)`` arrays the board's step was
-    given; ``board``: arrays ``state``, ``events``, ``flags``, ``alt_q4``, ``vel_q4``, ``acc_q4``."""
+    given; ``board``: arrays ``state``, ``events`` (``board_events``), ``flags``, ``alt_q4``,
+    ``vel_q4``, ``acc_q4``."""
     dt_us, alt_mm, accel, have = inputs
     fc = FlightComputer(config, ground_alt_mm=ground_alt_mm)
     kf = fc.kf
@@ -310,10 +333,10 @@ def differences(inputs, board, config, ground_alt_mm=None):
             found.append(f"state: replay {STATE_NAMES[fc.state]}, board {STATE_NAMES[state_b]}")
         if fc.events != events_b:
             found.append(f"events: replay {_names(fc.events)}, board {_names(events_b)}")
-        pyro_b = (bool(flags_b & fl.FLAG_PYRO_DROGUE), bool(flags_b & fl.FLAG_PYRO_MAIN))
-        if (bool(fc.pyro_drogue), bool(fc.pyro_main)) != pyro_b:
-            found.append(f"pyro (drogue, main): replay {(int(fc.pyro_drogue), int(fc.pyro_main))}, "
-                         f"board {(int(pyro_b[0]), int(pyro_b[1]))}")
+        pyro_b = tuple(int(flags_b & f != 0) for f in _PYRO_FLAGS)
+        pyro = (int(fc.pyro_drogue), int(fc.pyro_main), int(fc.pyro_backup_drogue), int(fc.pyro_backup_main))
+        if pyro != pyro_b:
+            found.append(f"pyro (drogue, main, backup drogue, backup main): replay {pyro}, board {pyro_b}")
         if not np.isnan(filt_b[0][i]):
             logged = tuple(int(col[i]) for col in filt_b)
             if (kf.alt_q4, kf.vel_q4, kf.acc_q4) != logged:
@@ -340,7 +363,8 @@ def log_differences(log, config):
     alt_mm = np.array([pressure_to_alt_mm(int(p)) if h & HAVE_BARO else 0
                        for p, h in zip(q4, have, strict=True)])
     inputs = (r["dt_us"].astype(np.int64), alt_mm, r["accel_mmps2"].astype(np.int64), have)
-    board = {name: r[name].astype(np.int64) for name in ("state", "events", "flags")}
+    board = {name: r[name].astype(np.int64) for name in ("state", "flags")}
+    board["events"] = board_events(r["events"], r["flags"])
     for name in ("alt_q4", "vel_q4", "acc_q4"):
         board[name] = np.where(own, r[name], np.nan)
     return t_us, differences(inputs, board, config)

@@ -37,9 +37,10 @@ def plot_replay(result, log, config, path):
         ax_alt.text(t[a], 1.0, STATE_NAMES[s], transform=ax_alt.get_xaxis_transform(), va="bottom",
                     fontsize=8)
     for ev in result.events:
-        if ev.event in ("drogue", "main"):
-            for ax in axes:
-                ax.axvline(ev.time_s, color="C2" if ev.event == "main" else "C4", lw=1.5)
+        if ev.event in ("drogue", "main", "backup_drogue", "backup_main"):
+            for ax in axes:  # a backup channel dotted, in its primary's colour
+                ax.axvline(ev.time_s, color="C2" if ev.event.endswith("main") else "C4", lw=1.5,
+                           ls=":" if ev.event.startswith("backup") else "-")
             ax_alt.annotate("%s %.2f s" % (ev.event, ev.time_s), (ev.time_s, ev.altitude_m),
                             xytext=(5, 5), textcoords="offset points", fontsize=9)
     ax_alt.set_ylabel("altitude above pad (m)")

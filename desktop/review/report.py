@@ -187,9 +187,9 @@ def summary(result, log, units):
         t_end = t_landed if t_landed is not None else end
         what = "to landing" if t_landed is not None else "to the end of the log (no landing in it)"
         rows.append(("flight time", f"{t_end - ev['launch'].time_s:.1f} s {what}"))
-    for name in ("drogue", "main"):
+    for name in ("drogue", "backup_drogue", "main", "backup_main"):
         if name in ev:
-            rows.append((f"{name} fired",
+            rows.append((f"{name.replace('_', ' ')} fired",
                          f"{ev[name].time_s:.2f} s at {ev[name].altitude_m * u.factor:.1f} {u.name}"))
     board, source = board_decisions(log)
     decisions = []
@@ -279,11 +279,12 @@ def figure(result, log, config, units, summ, title):
     first = {e.event: e for e in reversed(result.events)}
     if "launch" in first:  # a long pad (a board log) would squeeze the flight into a corner
         ax_acc.set_xlim(max(float(t[0]), first["launch"].time_s - PAD_SHOWN_S), float(t[-1]))
-    for name, colour in (("drogue", "C4"), ("main", "C2")):
+    for name, colour in (("drogue", "C4"), ("main", "C2"), ("backup_drogue", "C4"), ("backup_main", "C2")):
+        backup = name.startswith("backup")
         for ax in (ax_state, ax_alt, ax_vel, ax_acc):
             if name in first:
-                ax.axvline(first[name].time_s, color=colour, lw=1.4,
-                           label=f"{name} fired (ours)" if ax is ax_alt else None)
+                ax.axvline(first[name].time_s, color=colour, lw=1.4, ls=":" if backup else "-",
+                           label=f"{name.replace('_', ' ')} fired (ours)" if ax is ax_alt else None)
             if name in board:
                 ax.axvline(board[name], color=colour, lw=1.4, ls="--",
                            label=f"{name} (board)" if ax is ax_alt else None)

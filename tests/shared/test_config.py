@@ -26,6 +26,12 @@ def test_defaults_are_valid_and_converted_to_integer_units():
     ({"sensors": "gps"}, "sensors = 'gps' is not one of both, baro, accel"),
     ({"backup_drogue_s": 5, "apogee_lockout_s": 10}, "backup_drogue_s = 5 fires before apogee_lockout_s"),
     ({"sensors": "accel", "apogee_rule": "seed"}, "needs a barometer"),
+    ({"backup_main_m": 250}, "backup_main_m = 250 is out of range: allowed 0 (no backup main) or 10 m AGL "
+                             "to below main_deploy_m = 250"),
+    ({"backup_main_m": 5}, "backup_main_m = 5 is out of range"),
+    ({"backup_main_m": 100, "main_deploy_m": 0}, "below main_deploy_m = 0"),
+    ({"backup_drogue_delay_s": 31}, "backup_drogue_delay_s = 31 is out of range: allowed 0 to 30 s"),
+    ({"backup_main_delay_s": 0}, "backup_main_delay_s = 0 is out of range: allowed 0.1 to 60 s"),
 ])
 def test_bad_values_name_the_key(values, expected):
     with pytest.raises(ConfigError) as exc:

@@ -5,6 +5,7 @@ import shutil
 from pathlib import Path
 
 from desktop.hosts.micropython import REPO_ROOT, MicroPythonError, run_micropython
+from device.board import pyro_pins_text
 
 PICO = REPO_ROOT / "device" / "boards" / "pico.json"
 ARM_PIN = 22  # pico.json: arming switch to GND (active low, pull-up)
@@ -25,8 +26,7 @@ def prepare(workdir, scenario, board=None, config=None, pyro_pins=True):
     (workdir / "board.json").write_text(json.dumps(desc))
     (workdir / "config.json").write_text(json.dumps(config or {}))
     if pyro_pins:
-        pins = (desc["pyro"]["drogue"]["pin"], desc["pyro"]["main"]["pin"])
-        (workdir / "pyro_pins.txt").write_text("%d %d\n" % pins)
+        (workdir / "pyro_pins.txt").write_text(pyro_pins_text(desc))
     frames = workdir / "frames.bin"
     scenario.write(frames)
     return frames
