@@ -49,8 +49,8 @@ Transitions (``_transition``), each branch opening with its rule:
 | drogue, | (backup | proven, `backup_drogue_delay_s` after the drogue fired | `backup_drogue_delay_s` |
 | main | drogue) | | |
 | main | (backup | proven, `backup_main_delay_s` after the main fired at the | `backup_main_m`, |
-| | main) | earliest; descending at or below `backup_main_m` (no | `backup_main_delay_s` |
-| | | usable barometer: at once) | |
+| | main) | earliest; at or below `backup_main_m` (no usable | `backup_main_delay_s` |
+| | | barometer: at once) | |
 
 Apogee itself is declared by the filter's rule only while the barometer is in use (``mode``)
 and ``_apogee_enabled()``: coast, proven,
@@ -711,8 +711,8 @@ class FlightComputer:
         """The backup channels (drogue and main states: never on the pad, in the ascent or landed),
         each proven, at most once, after its primary fired: the backup drogue
         ``backup_drogue_delay_s`` after the drogue; the backup main ``backup_main_delay_s`` after
-        the main at the earliest, then descending at or below ``backup_main_m`` (without a usable
-        barometer: at once)."""
+        the main at the earliest, then at or below ``backup_main_m`` (the main fired descending;
+        without a usable barometer: at once)."""
         cfg = self.cfg
         if (cfg.backup_drogue_delay_ms and self.backup_drogue_fired_ms < 0 and self.flight_proven
                 and self.drogue_fired_ms >= 0
@@ -721,8 +721,7 @@ class FlightComputer:
         if (cfg.backup_main_mm and self.backup_main_fired_ms < 0 and self.flight_proven
                 and self.main_fired_ms >= 0
                 and self.now_ms - self.main_fired_ms >= cfg.backup_main_delay_ms
-                and (not self.mode & MODE_BARO
-                     or (self.vel_mmps < 0 and self.agl_mm <= cfg.backup_main_mm))):
+                and (not self.mode & MODE_BARO or self.agl_mm <= cfg.backup_main_mm)):
             self._fire_backup_main()
 
     def _fire_backup_drogue(self):

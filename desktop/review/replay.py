@@ -48,6 +48,8 @@ class ReplayResult:
     state: np.ndarray  # state index per sample (shared.flight.STATE_NAMES)
     pyro_drogue: np.ndarray
     pyro_main: np.ndarray
+    pyro_backup_drogue: np.ndarray  # the backup channels (docs/CONFIG.md, "Backup charges")
+    pyro_backup_main: np.ndarray
     ground_samples: int
     errors: int
     notes: list = field(default_factory=list)
@@ -100,6 +102,8 @@ def replay(log, config):
     state = np.zeros(n, dtype=np.int8)
     pyro_d = np.zeros(n, dtype=bool)
     pyro_m = np.zeros(n, dtype=bool)
+    pyro_bd = np.zeros(n, dtype=bool)
+    pyro_bm = np.zeros(n, dtype=bool)
     events = []
     step = fc.step
     kf = fc.kf
@@ -112,6 +116,8 @@ def replay(log, config):
         state[i] = fc.state
         pyro_d[i] = fc.pyro_drogue
         pyro_m[i] = fc.pyro_main
+        pyro_bd[i] = fc.pyro_backup_drogue
+        pyro_bm[i] = fc.pyro_backup_main
         if fc.events:
             for bit, name in enumerate(EVENT_NAMES):
                 if fc.events & (1 << bit):
@@ -128,7 +134,7 @@ def replay(log, config):
     else:
         notes.append("ground reference from %d quiet pad samples" % fc.cal_samples)
     return ReplayResult(events, log.time_s, out["raw"], out["agl"], out["vel"], out["acc"], state,
-                        pyro_d, pyro_m, fc.cal_samples, fc.errors, notes)
+                        pyro_d, pyro_m, pyro_bd, pyro_bm, fc.cal_samples, fc.errors, notes)
 
 
 def _detail(fc, bit):

@@ -14,6 +14,8 @@ from shared.flight import (
     DROGUE,
     ERR_ORIENTATION,
     EV_APOGEE,
+    EV_BACKUP_DROGUE,
+    EV_BACKUP_MAIN,
     EV_DROGUE,
     EV_LANDED,
     EV_LAUNCH,
@@ -26,7 +28,9 @@ from shared.flight import (
 from tools.synthetic_flight import make_flight
 
 G = 9807
-ALL_ON = {"backup_drogue_s": 20, "apogee_delay_s": 1, "apogee_lockout_s": 0, "main_guard_s": 1}
+FIRING = EV_APOGEE | EV_DROGUE | EV_MAIN | EV_BACKUP_DROGUE | EV_BACKUP_MAIN
+ALL_ON = {"backup_drogue_s": 20, "apogee_delay_s": 1, "apogee_lockout_s": 0, "main_guard_s": 1,
+          "backup_drogue_delay_s": 1, "backup_main_m": 200}
 
 
 def run(dts, alts, accs, have, **config):
@@ -37,7 +41,7 @@ def run(dts, alts, accs, have, **config):
         fc.step(int(dts[i]), int(alts[i]), int(accs[i]), int(have[i]))
         if fc.events:
             events.append((i, fc.events))
-        if fc.pyro_drogue or fc.pyro_main:
+        if fc.pyro_drogue or fc.pyro_main or fc.pyro_backup_drogue or fc.pyro_backup_main:
             pyro.append(i)
     return fc, events, pyro
 
@@ -66,7 +70,7 @@ def _modes_and_rules():
 def assert_never_fires(dts, alts, accs, have):
     for sensors, rule in _modes_and_rules():
         fc, events, pyro = run(dts, alts, accs, have, sensors=sensors, apogee_rule=rule, **ALL_ON)
-        fired = [e for _, e in events if e & (EV_APOGEE | EV_DROGUE | EV_MAIN)]
+        fired = [e for _, e in events if e & FIRING]
         assert not fired and not pyro, (sensors, rule, events)
         assert fc.state in (PAD, COAST, DROGUE) or fc.state < DROGUE
 
@@ -116,7 +120,7 @@ def test_stuck_and_garbage_sensors_never_fire():
     stuck_accs[1000:] = 6 * G  # stuck at 6 g: looks like a sustained boost; the barometer vetoes it
     for sensors in ("both", "baro"):
         _, events, pyro = run(dts, alts, stuck_accs, have, sensors=sensors, **ALL_ON)
-        assert not pyro and not [e for _, e in events if e & (EV_APOGEE | EV_DROGUE | EV_MAIN)]
+        assert not pyro and not [e for _, e in events if e & FIRING]
     stuck_alts = alts.copy()
     stuck_alts[1000:] = alts[1000]
     assert_never_fires(dts, stuck_alts, accs, have)

@@ -13,13 +13,24 @@ import pytest
 
 from shared.config import load_config
 from shared.detector import HAVE_ACCEL, HAVE_BARO, HAVE_BOTH
-from shared.flight import BOOST, EV_APOGEE, EV_DROGUE, EV_LAUNCH, EV_MAIN, PAD, FlightComputer
+from shared.flight import (
+    BOOST,
+    EV_APOGEE,
+    EV_BACKUP_DROGUE,
+    EV_BACKUP_MAIN,
+    EV_DROGUE,
+    EV_LAUNCH,
+    EV_MAIN,
+    PAD,
+    FlightComputer,
+)
 from tools.synthetic_flight import make_flight
 
 G = 9807
-ALL_ON = {"backup_drogue_s": 20, "apogee_delay_s": 1, "apogee_lockout_s": 0, "main_guard_s": 1}
+ALL_ON = {"backup_drogue_s": 20, "apogee_delay_s": 1, "apogee_lockout_s": 0, "main_guard_s": 1,
+          "backup_drogue_delay_s": 1, "backup_main_m": 200}
 ALTOS = Path(__file__).resolve().parents[1] / "data" / "flights" / "altos"
-FIRING = EV_APOGEE | EV_DROGUE | EV_MAIN
+FIRING = EV_APOGEE | EV_DROGUE | EV_MAIN | EV_BACKUP_DROGUE | EV_BACKUP_MAIN
 
 
 def run(dts, alts, accs, have, ground_alt_mm=None, **config):
@@ -31,7 +42,7 @@ def run(dts, alts, accs, have, ground_alt_mm=None, **config):
         fc.step(int(dts[i]), int(alts[i]), int(accs[i]), int(have[i]))
         if fc.events:
             events.append((i, fc.events))
-        if fc.pyro_drogue or fc.pyro_main:
+        if fc.pyro_drogue or fc.pyro_main or fc.pyro_backup_drogue or fc.pyro_backup_main:
             pyro.append(i)
     return fc, events, pyro
 
@@ -92,7 +103,8 @@ def test_altos_non_flight_without_its_accelerometer_fires_nothing():
     log.accel_mps2 = None  # the same board as a barometer-only one
     for rule in ("velocity", "seed"):
         res = replay(log, config_for(log, overrides={"sensors": "baro", "apogee_rule": rule, **ALL_ON}))
-        assert not [e for e in res.events if e.event in ("apogee", "drogue", "main")], res.events
+        firing = ("apogee", "drogue", "main", "backup_drogue", "backup_main")
+        assert not [e for e in res.events if e.event in firing], res.events
 
 
 # -- finding 2: a shove plus a pressure offset proved flight on two-sensor boards; the coast clamp
