@@ -102,7 +102,8 @@ def run_flight(table_name, rule_name, flight, enable_from, lock):
 def run_fc_loop(fc, dts, alts, accs, out):
     """Step the FlightComputer over every sample (accs are kinematic, as make_flight gives them:
     the specific force is acc + 1 g). ``out`` (array('i') of 6n, or None) receives per sample
-    alt_q4, vel_q4, acc_q4, state, events, pyro bits."""
+    alt_q4, vel_q4, acc_q4, state, events, pyro bits (1 drogue, 2 main, 4 backup drogue, 8 backup
+    main)."""
     n = len(dts)
     for i in range(n):
         fc.step(dts[i], alts[i], accs[i] + 9807, HAVE_BOTH)
@@ -114,7 +115,8 @@ def run_fc_loop(fc, dts, alts, accs, out):
             out[j + 2] = kf.acc_q4
             out[j + 3] = fc.state
             out[j + 4] = fc.events
-            out[j + 5] = fc.pyro_drogue + 2 * fc.pyro_main
+            out[j + 5] = (fc.pyro_drogue + 2 * fc.pyro_main + 4 * fc.pyro_backup_drogue
+                          + 8 * fc.pyro_backup_main)
 
 
 def run_fc_flight(flight, lock, config_values=None):

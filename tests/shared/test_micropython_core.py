@@ -22,6 +22,8 @@ SHARED_MODULES = sorted(p.stem for p in (REPO_ROOT / "shared").glob("*.py") if p
 FLIGHTS = {
     "typical": (dict(rate_hz=100, seed=11), 600),
     "seed_rate": (dict(rate_hz=20, seed=12, pad_s=1), 100),
+    # 400 m and 40 s of descent: the main and the backup channels fire (the whole descent path)
+    "descent": (dict(rate_hz=50, seed=13, boost_mmps2=40000, after_apogee_s=40), 150),
     # 30 km class: 100 g for 0.78 s -> 766 m/s, drag-free apogee ~30 km above a 1 km site
     "extreme_30km": (dict(rate_hz=100, boost_mmps2=981000, burn_ms=780, after_apogee_s=3,
                           ground_mm=1000000, alt_noise_mm=5000, acc_noise_mmps2=14000, seed=13,
@@ -123,6 +125,7 @@ print(' '.join([str(x) for x in out]))
     ("extreme_30km", {"mach_lockout_mps": 250}),
     ("extreme_30km", {"sensors": "baro"}),
     ("extreme_1000mps", None),
+    ("descent", {"backup_drogue_delay_s": 1, "backup_main_m": 150}),
 ])
 def test_state_machine_heap_locked_and_bit_identical(interp, name, config):
     from tools.bench_step import run_fc_flight
@@ -138,6 +141,8 @@ def test_state_machine_heap_locked_and_bit_identical(interp, name, config):
     assert 1 in states  # it launched (state BOOST)
     if name == "typical":
         assert any(expected[i + 5] for i in range(0, len(expected), 6))  # it did fire
+    if name == "descent":  # every output fired: drogue, main and both backups
+        assert {expected[i + 5] for i in range(0, len(expected), 6)} >= {1, 2, 4, 8}
 
 
 @pytest.mark.parametrize("interp", INTERPRETERS)
