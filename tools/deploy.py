@@ -410,7 +410,9 @@ def build_parser():
     p.add_argument("--igniter", help="'live igniter' if continuity shows an igniter and you mean it")
     p.set_defaults(func=cmd_bench)
     p = sub.add_parser("fire", parents=[common], help="ground test: pulse one channel (disarmed board only)")
-    p.add_argument("channel", choices=("drogue", "main"))
+    from device.board import CHANNELS
+
+    p.add_argument("channel", choices=CHANNELS, help="a backup channel only if board.json has it")
     p.add_argument("ms", type=int, help="pulse length, ms (1..2000)")
     p.add_argument("--confirm", required=True, help="the channel name again")
     p.add_argument("--igniter", help="'live igniter' when continuity shows an igniter connected")
