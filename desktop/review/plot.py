@@ -41,8 +41,10 @@ def plot_replay(result, log, config, path):
             for ax in axes:  # a backup channel dotted, in its primary's colour
                 ax.axvline(ev.time_s, color="C2" if ev.event.endswith("main") else "C4", lw=1.5,
                            ls=":" if ev.event.startswith("backup") else "-")
-            ax_alt.annotate("%s %.2f s" % (ev.event, ev.time_s), (ev.time_s, ev.altitude_m),
-                            xytext=(5, 5), textcoords="offset points", fontsize=9)
+            # a backup's label below its point: it fires close after its primary
+            ax_alt.annotate("%s %.2f s" % (ev.event.replace("_", " "), ev.time_s), (ev.time_s, ev.altitude_m),
+                            xytext=(5, -15 if ev.event.startswith("backup") else 5),
+                            textcoords="offset points", fontsize=9)
     ax_alt.set_ylabel("altitude above pad (m)")
     ax_vel.set_ylabel("vertical velocity (m/s)")
     ax_acc.set_ylabel("acceleration (m/s²)")

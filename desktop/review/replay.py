@@ -244,7 +244,7 @@ def run(args):
     if not result.events:
         print("no events")
     for e in result.events:
-        print("%-8s t = %9.3f s   altitude %8.1f m AGL%s" % (e.event, e.time_s, e.altitude_m,
+        print("%-13s t = %9.3f s   altitude %8.1f m AGL%s" % (e.event, e.time_s, e.altitude_m,
                                                           "   " + e.detail if e.detail else ""))
     print("max altitude %.1f m AGL; final state %s" % (float(np.nanmax(result.agl_m)),
                                                         STATE_NAMES[int(result.state[-1])]))

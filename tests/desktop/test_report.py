@@ -169,3 +169,22 @@ def test_replay_report_command_writes_png_and_markdown(tmp_path, capsys):
     blocker.write_text("x")
     assert main(["replay", ALTOS, "--report", str(blocker / "sub")]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_backup_charges_in_the_summary_and_the_figure(sil):
+    # the backup channels (docs/CONFIG.md, "Backup charges"): their firings in the summary, their
+    # lines in the figure; the board log's flight (sil) replayed with them on
+    from shared.config import load_config
+
+    log, config, _result = sil
+    config = load_config(dict(config.values, backup_drogue_delay_s=2, backup_main_m=100))
+    result = replay(log, config)
+    summ = summary(result, log, UNITS["m"])
+    drogue = _number(_value(summ, "drogue fired"))
+    assert _number(_value(summ, "backup drogue fired")) - drogue == pytest.approx(2, abs=0.021)  # 50 Hz
+    backup_main = _value(summ, "backup main fired")
+    assert 95 <= float(backup_main.split(" at ")[1].split()[0]) <= 100
+    fig = figure(result, log, config, UNITS["m"], summ, "backups")
+    labels = {t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts()}
+    plt.close(fig)
+    assert {"backup drogue fired (ours)", "backup main fired (ours)"} <= labels
