@@ -31,7 +31,8 @@ def test_check_exits_1_at_the_first_differing_sample(tmp_path, capsys):
     assert main(["replay", "--check", EXAMPLE, "--config", str(cfg)]) == 1
     out = capsys.readouterr().out.strip().splitlines()
     assert len(out) == 1 and "differs: state: replay main, board drogue" in out[0]
-    assert "pyro (drogue, main): replay (0, 1), board (0, 0)" in out[0]
+    assert ("pyro (drogue, main, backup drogue, backup main): replay (0, 1, 0, 0), board (0, 0, 0, 0)"
+            in out[0])
 
 
 @pytest.mark.parametrize("bad", ["README.md", "missing.log"])
