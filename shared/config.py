@@ -86,7 +86,8 @@ SCHEMA = {
     "baro_consistency_mps": (50, 10, 500, "m/s",
         "barometric climb rate outside the accelerometer's velocity bounds by more than this is not motion"),
     "dead_reckoning_guard_mps": (0, 0, 50, "m/s",
-        "after the barometer was left out in coast: no apogee while the accelerometer's velocity carried on from the filter's before the fault exceeds this"),
+        "after the barometer was left out in coast: no apogee while the accelerometer's velocity "
+        "carried on from the filter's before the fault exceeds this"),
     "baro_stuck_s": (1.0, 0.2, 10, "s", "identical barometer readings for this long in flight: frozen"),
     "accel_stuck_s": (0.5, 0.1, 10, "s",
         "identical accelerometer readings for this long while above 1 g (noise expected): frozen"),

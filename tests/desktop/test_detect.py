@@ -31,8 +31,9 @@ def test_flight_computer_detects_every_flight_and_never_early(flights):
 
 @pytest.mark.xfail(strict=True, reason="the seed paper's accelerometer holds one reading through the whole "
                    "boost (a flat 160 m/s^2 floored to 3 m/s^2 steps, noise far below a step), which the "
-                   "health rule for a part of unknown range reads as clipped at full scale (shared/health.py): "
-                   "the filter leaves those readings out; mean 0.094 s, p95 0.203 s on 200 flights against the "
+                   "health rule for a part of unknown range reads as clipped at full scale "
+                   "(shared/health.py): the filter leaves those readings out; mean 0.094 s, p95 0.203 s "
+                   "on 200 flights against the "
                    "0.06 / 0.15 s goals (0.034 / 0.083 s without that rule, which a 16 g part clipping "
                    "unannounced needs: 7.4 s early without it, tests/shared/test_arbitration.py)")
 def test_flight_computer_meets_the_study_accuracy_goals(flights):

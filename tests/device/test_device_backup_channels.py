@@ -12,10 +12,11 @@ import shutil
 
 import pytest
 
-from desktop.hosts.micropython import REPO_ROOT, run_micropython
+from desktop.hosts.micropython import REPO_ROOT
 from device.board import BoardError, check_with_config, pyro_pins_text, validate
 from shared.config import load_config
 from tests.support.boot_run import boot_pin_states
+from tests.support.groundtest_guest import run_groundtest
 
 PICO = json.loads((REPO_ROOT / "device" / "boards" / "pico.json").read_text())
 BACKUP_DROGUE_PIN = 18
@@ -89,23 +90,7 @@ def test_boot_py_drives_the_backup_pins_low(tmp_path, pins_txt):
     assert boot_pin_states(wd, (BACKUP_DROGUE_PIN, BACKUP_MAIN_PIN, 16, 17)) == [0, 0, 0, 0, 1]
 
 
-GUEST = """
-import json, os
-from desktop.hosts.sil import fake_machine, fake_time
-fake_machine.install()
-import machine
-os.chdir({workdir!r})
-from device.groundtest import fire, Refused, LIVE
-def attempt(**kw):
-    t0 = fake_time.elapsed
-    n0 = fake_machine.EV_N[0]
-    try:
-        took = fire(**kw)
-    except Refused as e:
-        return {{"refused": str(e)}}
-    ev = [(t - t0, p, l) for (t, p, l) in fake_machine.pin_events()[n0:] if p in (16, 17, 18, 19)]
-    return {{"took": took, "pins": ev}}
-out = {{}}
+GROUND_TEST = """
 out["no_confirm"] = attempt(channel="backup_main", ms=50)
 out["wrong_confirm"] = attempt(channel="backup_main", ms=50, confirm="main")
 fake_machine.ADC_VALUES[28] = 40000                # an igniter on the backup main
@@ -121,7 +106,6 @@ assert p.guard(3, 80)                              # the backup main's hardware 
 p.drive(False, False, False, True)
 fake_time.advance(200000)
 out["guard"] = [(t - t0, pin, l) for (t, pin, l) in fake_machine.pin_events()[n0:]]
-print("RESULT", json.dumps(out))
 """
 
 
@@ -130,8 +114,7 @@ def test_ground_test_fires_a_backup_channel_only_when_confirmed(tmp_path):
     wd = tmp_path / "board"
     wd.mkdir()
     (wd / "board.json").write_text(json.dumps(with_backups()))
-    out = run_micropython(GUEST.format(workdir=str(wd)), "unix")
-    res = json.loads([x for x in out.splitlines() if x.startswith("RESULT ")][-1][len("RESULT "):])
+    res = run_groundtest(wd, GROUND_TEST)
     assert "type the channel name again" in res["no_confirm"]["refused"]
     assert "type the channel name again" in res["wrong_confirm"]["refused"]
     assert "igniter connected on backup_main" in res["igniter"]["refused"]
@@ -145,11 +128,8 @@ def test_ground_test_refuses_a_backup_channel_the_board_lacks(tmp_path):
     wd = tmp_path / "board"
     wd.mkdir()
     shutil.copy(REPO_ROOT / "device" / "boards" / "pico.json", wd / "board.json")
-    code = GUEST.format(workdir=str(wd)).split('out["no_confirm"]')[0] + (
-        'out["missing"] = attempt(channel="backup_drogue", ms=50, confirm="backup_drogue")\n'
-        'print("RESULT", json.dumps(out))\n')
-    out = run_micropython(code, "unix")
-    res = json.loads([x for x in out.splitlines() if x.startswith("RESULT ")][-1][len("RESULT "):])
+    res = run_groundtest(
+        wd, 'out["missing"] = attempt(channel="backup_drogue", ms=50, confirm="backup_drogue")')
     assert "the board has no backup_drogue channel" in res["missing"]["refused"]
 
 

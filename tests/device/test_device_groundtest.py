@@ -14,34 +14,13 @@ import pytest
 
 from desktop.hosts.micropython import REPO_ROOT, run_micropython
 from tests.support.boot_run import boot_pin_states
+from tests.support.groundtest_guest import run_groundtest
 from tools.deploy import bench_file
 
 pytestmark = pytest.mark.micropython
 
 PICO = REPO_ROOT / "device" / "boards" / "pico.json"
 ALTOS = REPO_ROOT / "tests" / "data" / "flights" / "altos" / "2012-09-29-serial-341-flight-005.csv"
-
-GUEST_PRELUDE = """
-import json, os
-from desktop.hosts.sil import fake_machine, fake_time
-fake_machine.install()
-import machine
-os.chdir({workdir!r})
-from device.groundtest import fire, Refused, LIVE
-def attempt(**kw):
-    t0 = fake_time.elapsed
-    n0 = fake_machine.EV_N[0]
-    try:
-        took = fire(**kw)
-    except Refused as e:
-        return {{"refused": str(e)}}
-    except KeyboardInterrupt:
-        took = "interrupted"
-    ev = [(t - t0, p, l) for (t, p, l) in fake_machine.pin_events()[n0:] if p in (16, 17)]
-    return {{"took": took, "pins": ev}}
-out = {{}}
-"""
-
 
 def _workdir(tmp_path):
     wd = tmp_path / "board"
@@ -52,10 +31,7 @@ def _workdir(tmp_path):
 
 def _run(tmp_path, body):
     wd = _workdir(tmp_path)
-    code = GUEST_PRELUDE.format(workdir=str(wd)) + body + "\nprint('RESULT', json.dumps(out))\n"
-    out = run_micropython(code, "unix")
-    line = [x for x in out.splitlines() if x.startswith("RESULT ")][-1]
-    return json.loads(line[len("RESULT "):]), wd
+    return run_groundtest(wd, body), wd
 
 
 def test_ground_test_refusals_and_pulse(tmp_path):

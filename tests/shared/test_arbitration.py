@@ -16,8 +16,8 @@ import pytest
 import shared.flight as flight_module
 from shared.arbitration import Arbitration
 from shared.config import load_config
-from shared.flight import EV_HEALTH, EV_MODE, MODE_ACCEL, MODE_BARO
 from shared.detector import HAVE_BOTH
+from shared.flight import EV_HEALTH, EV_MODE, MODE_ACCEL, MODE_BARO
 from shared.health import HEALTH_ACCEL_STUCK, HEALTH_BARO_LOST, HEALTH_BARO_STUCK, SensorHealth
 from tests.support.fault_flight import MACH_ROCKET, SUBSONIC_ROCKET, Faults, Rocket, fly, run
 
@@ -300,7 +300,7 @@ def test_a_reading_held_at_the_flights_peak_is_clipped_only_when_held(held_sampl
     readings = [140000 + 1000 * k for k in range(10)] + [150000] * held_samples + [149000]
     seen = False
     for i, acc in enumerate(readings):
-        have = health.watch(10 * i, 100000 + 500 * i, acc, health.judge(0, acc, HAVE_BOTH), True)
+        health.watch(10 * i, 100000 + 500 * i, acc, health.judge(0, acc, HAVE_BOTH), True)
         seen = seen or health.clipped
     assert seen == clipped
     assert not health.flags & HEALTH_ACCEL_STUCK
