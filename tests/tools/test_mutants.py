@@ -1,0 +1,22 @@
+"""tools/mutate.py's mutants stay applicable: each rule's text is found exactly once in its file
+(an edit of the code that moves a rule would otherwise stop the mutation run at that mutant),
+and each names a test that exists."""
+
+from pathlib import Path
+
+from tools import mutate
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_every_mutant_text_is_found_exactly_once():
+    missing = [name for name, rel, original, _mutated, _test in mutate.MUTANTS
+               if (ROOT / rel).read_text().count(original) != 1]
+    assert missing == []
+
+
+def test_every_mutant_names_an_existing_test():
+    for name, _rel, _original, _mutated, test in mutate.MUTANTS:
+        path, _, func = test.partition("::")
+        func = func.split("[")[0]
+        assert func and f"def {func}(" in (ROOT / path).read_text(), name
