@@ -4,7 +4,7 @@ Usage (from the repository root, with Python >= 3.11 and git; nothing else):
 
     python3 tools/dev.py run     # set up .venv, run the 200-flight seed study, write plots to out/
     python3 tools/dev.py test    # set up .venv, run every test (MicroPython interpreters included)
-    python3 tools/dev.py fast    # the fast lane while developing: pytest -m "not slow" (under a minute)
+    python3 tools/dev.py fast    # the fast lane while developing: pytest -m "not slow" (about 2 minutes)
 
 The environment gets the exact versions in requirements.lock (with their hashes, by plain pip),
 then the project itself (editable, without dependencies). It is reinstalled only when
