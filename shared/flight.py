@@ -352,7 +352,7 @@ class FlightComputer:
             self.ground_alt_mm = pad.ground_alt_mm
             self.one_g_mmps2 = pad.one_g_mmps2
         acc_kin = accel_mmps2 - self.one_g_mmps2
-        have = self._arbitrate(dt_us, alt_mm, accel_mmps2, acc_kin, have, clipped)
+        have = self._arbitrate(alt_mm, accel_mmps2, acc_kin, have, clipped)
         kf = self.kf
         self._set_baro_weight()
         if (self._resume_pending or self._reanchor) and have & HAVE_BARO:
@@ -766,7 +766,7 @@ class FlightComputer:
 
     # Sensor arbitration and degraded modes (docs/DESIGN.md, "Sensor arbitration").
 
-    def _arbitrate(self, dt_us, alt_mm, accel_mmps2, acc_kin, have, clipped):
+    def _arbitrate(self, alt_mm, accel_mmps2, acc_kin, have, clipped):
         """The decision mode from each sensor's health; the accelerometer's velocity bounds from
         launch; in coast, the barometer left out while it disagrees with them. Returns ``have``
         without an excluded barometer."""

@@ -27,9 +27,9 @@ def _events(log):
     return {e.event: e for e in res.events if e.event not in _DIAGNOSTIC}, res
 
 
-def _assert_same_events(alt_log, merged_log):
+def _assert_same_events(alt_log, merged_log, extra_s=0.0):
     """Every event of the merged log, in the alternating one within one merged sample period
-    (the larger of the intervals on either side of the merged event's row)."""
+    (the larger of the intervals on either side of the merged event's row) plus ``extra_s``."""
     alt, _ = _events(alt_log)
     merged, _ = _events(merged_log)
     t = merged_log.time_s
@@ -40,19 +40,19 @@ def _assert_same_events(alt_log, merged_log):
             # only at the very end of the record: the alternating log may end before its turn
             assert t[-1] - ev.time_s <= period, (name, ev.time_s)
             continue
-        if merged_log.path.endswith(ANOMALOUS + " (merged)"):
-            # its apogee follows the barometer's re-admission after the ejection-like event (the
-            # arbitration judges it in 50 ms slots over 0.5 s windows): two slots more; the main
-            # follows it by main_guard_s (its apogee is below the main altitude)
-            period += 0.1
-        assert abs(alt[name].time_s - ev.time_s) <= period + 1e-9, (name, alt[name].time_s, ev.time_s)
+        assert abs(alt[name].time_s - ev.time_s) <= period + extra_s + 1e-9, (
+            name, alt[name].time_s, ev.time_s)
     assert set(alt) <= set(merged)
 
 
 @pytest.mark.parametrize("name", sorted(REFERENCE))
 def test_alternating_rows_give_the_events_of_the_merged_rows(name):
     log = read_flight_csv(DATA / name)
-    _assert_same_events(row_layouts.alternating(log), row_layouts.merged_alternating(log))
+    # the anomalous flight's apogee follows the barometer's re-admission after its ejection-like
+    # event (the arbitration judges it in 50 ms slots over 0.5 s windows): two slots more; its
+    # main follows the drogue by main_guard_s (its apogee is below the main altitude)
+    extra_s = 0.1 if name == ANOMALOUS else 0.0
+    _assert_same_events(row_layouts.alternating(log), row_layouts.merged_alternating(log), extra_s)
 
 
 @pytest.mark.slow
