@@ -88,6 +88,9 @@ SCHEMA = {
     "dead_reckoning_guard_mps": (0, 0, 50, "m/s",
         "after the barometer was left out in coast: no apogee while the accelerometer's velocity "
         "carried on from the filter's before the fault exceeds this"),
+    "baro_track_m": (10, 2, 100, "m",
+        "apogee on the barometer alone (no accelerometer in use) needs the filter within this of the "
+        "barometer (RMS over 0.16 s; AltOS's 10 m): not while it re-converges or reads a transonic lie"),
     "baro_stuck_s": (1.0, 0.2, 10, "s", "identical barometer readings for this long in flight: frozen"),
     "accel_stuck_s": (0.5, 0.1, 10, "s",
         "identical accelerometer readings for this long while above 1 g (noise expected): frozen"),
@@ -158,6 +161,7 @@ class Config:
         self.apogee_guard_mmps = int(v["apogee_guard_mps"] * 1000)
         self.baro_consistency_mmps = int(v["baro_consistency_mps"] * 1000)
         self.dead_reckoning_guard_mmps = int(v["dead_reckoning_guard_mps"] * 1000)
+        self.baro_track_sq_q4 = int(v["baro_track_m"] ** 2 * 16)  # 1/16 m^2
         self.baro_stuck_ms = int(v["baro_stuck_s"] * 1000)
         self.accel_stuck_ms = int(v["accel_stuck_s"] * 1000)
         self.baro_rate_max_mmps = int(v["baro_rate_max_mps"] * 1000)

@@ -138,7 +138,11 @@ _PROOF_HOLD_MS = const(1000)  # the proof climb must be held this long
 _ACCEL_ONLY_BOOST_MS = const(300)
 _DECEL_TAU_MS = const(500)  # time constant of the averaged acceleration used by the apogee gate
 _EMA_STEP_LIMIT = const(0xFFFFF)  # 2**20 - 1: keeps (x - avg) * dt_ms within 31 bits (dt_ms <= 1000)
-_INNOV_TAU_MS = const(300)  # time constant of the averaged barometric innovation
+# Barometer-only apogee needs the filter to track the barometer (AltOS's "not transonic" check):
+# the squared distance between them, each capped at _RESID_CAP_M, averaged over this time (AltOS:
+# 1/16 per sample at 100 Hz)
+_RESID_TAU_MS = const(160)
+_RESID_CAP_M = const(127)
 # Innovation gates after burnout (shared/detector.py): coasting flight changes its acceleration
 # smoothly, so a reading this far from the estimate is an ejection charge, a shock or a pressure
 # transient. 50 m is eight times the barometer noise the gains assume; 30 m/s^2 is three g.
@@ -267,7 +271,9 @@ class FlightComputer:
         self.max_agl_mm = 0
         self.max_vel_mmps = 0
         self.acc_avg_q4 = 0
-        self.innov_avg_q4 = 0
+        # averaged squared distance between the barometer and the filter after its correction,
+        # 1/16 m^2 (_RESID_TAU_MS, _RESID_CAP_M): small while the filter tracks the barometer
+        self.resid_sq_avg_q4 = 0
         self.apogee_ms = -1
         self.drogue_due_ms = -1
         self.drogue_fired_ms = -1
@@ -414,7 +420,7 @@ class FlightComputer:
                     self._steady_agl_mm = self.agl_mm
                 self._good_agl_mm = self.agl_mm
                 self._good_ms = self.now_ms
-        self._update_averages(dt_us)
+        self._update_averages(dt_us, alt_mm, have)
         self._update_boost(accel_interval_us, accel_period_us, acc_kin, have, clipped)
         if measured_acc or clipped:
             self._integrate_accel(accel_since_us // 1000, acc_kin, clipped)
@@ -428,10 +434,12 @@ class FlightComputer:
 
     def _set_baro_weight(self):
         """AltOS-style Mach de-weighting: full weight up to the lockout speed, then a ramp down to
-        mach_baro_weight_pct at 1.32 x lockout; ascent only."""
+        mach_baro_weight_pct at 1.32 x lockout; ascent only, and only while the accelerometer is
+        in use: de-weighting the only sensor would leave the filter coasting on an acceleration
+        no reading corrects (an accelerometer lost in boost kept the motor's thrust in it)."""
         cfg = self.cfg
         kf = self.kf
-        if self.state >= DROGUE:
+        if self.state >= DROGUE or not self.mode & MODE_ACCEL:
             kf.baro_weight_256 = 256
             return
         over = (kf.vel_q4 >> 4) - cfg.mach_lockout_mmps
@@ -472,11 +480,19 @@ class FlightComputer:
                 and not (self._dead_reckoning and self.arb.valid
                          and self.arb.dead_reckoned_mmps(self.now_ms) > cfg.dead_reckoning_guard_mmps)
                 and cfg.coast_decel_mmps2 << 4 <= -self.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
-                and (self.coast_measured or not self.health.accel_ok))
+                and (self.coast_measured or not self.health.accel_ok)
+                and (self.mode & MODE_ACCEL or self.resid_sq_avg_q4 < cfg.baro_track_sq_q4))
 
-    def _update_averages(self, dt_us):
-        self.acc_avg_q4 = _ema(self.acc_avg_q4, self.kf.acc_q4, dt_us // 1000, _DECEL_TAU_MS)
-        self.innov_avg_q4 = _ema(self.innov_avg_q4, self.kf.innov_alt_q4, dt_us // 1000, _INNOV_TAU_MS)
+    def _update_averages(self, dt_us, alt_mm, have):
+        dt_ms = dt_us // 1000
+        self.acc_avg_q4 = _ema(self.acc_avg_q4, self.kf.acc_q4, dt_ms, _DECEL_TAU_MS)
+        if have & HAVE_BARO:
+            resid_m = (alt_mm - (self.kf.alt_q4 >> 4)) // 1000
+            if resid_m < 0:
+                resid_m = -resid_m
+            if resid_m > _RESID_CAP_M:
+                resid_m = _RESID_CAP_M
+            self.resid_sq_avg_q4 = _ema(self.resid_sq_avg_q4, resid_m * resid_m << 4, dt_ms, _RESID_TAU_MS)
 
     def _update_boost(self, accel_interval_us, accel_period_us, acc_kin, have, clipped):
         """Boost time: a boosting accelerometer reading after a boosting one adds the time between

@@ -211,12 +211,12 @@ def count_filter(flight, phases, rate_hz, lock=True):
 
 # (label, object path from the flight computer or "module:" + module name, attribute, arity)
 PROFILE = (
-    ("FlightComputer._arbitrate", "fc", "_arbitrate", 6),
+    ("FlightComputer._arbitrate", "fc", "_arbitrate", 5),
     ("FlightComputer._set_baro_weight", "fc", "_set_baro_weight", 0),
     ("FlightComputer._set_model", "fc", "_set_model", 1),
     ("FlightComputer._apogee_enabled", "fc", "_apogee_enabled", 0),
     ("FlightComputer._accel_only_apogee", "fc", "_accel_only_apogee", 0),
-    ("FlightComputer._update_averages", "fc", "_update_averages", 1),
+    ("FlightComputer._update_averages", "fc", "_update_averages", 3),
     ("FlightComputer._update_boost", "fc", "_update_boost", 5),
     ("FlightComputer._integrate_accel", "fc", "_integrate_accel", 3),
     ("FlightComputer._transition", "fc", "_transition", 1),
@@ -235,7 +235,7 @@ PROFILE = (
     ("PadCalibration.check_orientation", "pad", "check_orientation", 1),
     ("Arbitration.integrate", "arb", "integrate", 4),
     ("Arbitration.integrate_missing", "arb", "integrate_missing", 1),
-    ("Arbitration.add_baro", "arb", "add_baro", 4),
+    ("Arbitration.add_baro", "arb", "add_baro", 5),
     ("Arbitration._judge", "arb", "_judge", 1),
     ("Arbitration.lower_mmps", "arb", "lower_mmps", 0),
     ("Arbitration.start", "arb", "start", 1),

@@ -213,6 +213,22 @@ def test_accelerometer_faults_with_a_healthy_barometer_within_0_3_s(subsonic, ki
     assert_within(subsonic, drogue, 0.3)
 
 
+@pytest.mark.parametrize("start_s", [2.0, 2.3])
+@pytest.mark.parametrize("baro_track_m", [10, 100], ids=["tracking_check", "tracking_check_widest"])
+def test_accelerometer_lost_late_in_boost_of_a_supersonic_flight(supersonic, start_s, baro_track_m,
+                                                                 monkeypatch):
+    """The accelerometer dies with the motor still burning: the filter keeps the thrust in its
+    acceleration. The barometer, now the only sensor, keeps its full weight through Mach, and the
+    filter re-converges on it; the tracking check holds apogee back while it does. Each rule alone
+    keeps the drogue at apogee (the widest check leaves the weight rule alone); without both it came
+    17 s early at 270 m/s."""
+    run_fc = bench.run_flight_computer
+    monkeypatch.setattr(bench, "run_flight_computer",
+                        lambda log, overrides: run_fc(log, dict(overrides, baro_track_m=baro_track_m)))
+    drogue, _ = run(supersonic, fault("accel_lost", phase="boost", start_s=start_s))
+    assert_within(supersonic, drogue, 0.1)
+
+
 # --- barometer-only board -------------------------------------------------------------------------
 
 
@@ -228,8 +244,10 @@ def test_baro_only_through_mach_never_fires_early(supersonic, kind, eps):
     assert_not_early(supersonic, drogue)
 
 
-@pytest.mark.parametrize("dh_m", [-300.0, 300.0])
-@pytest.mark.parametrize("decay_s", [0.3, pytest.param(3.0, marks=XFAIL_BARO_ONLY_TRANSIENT)])
+@pytest.mark.parametrize("dh_m, decay_s", [
+    (-300.0, 0.3), (300.0, 0.3), (-300.0, 3.0),
+    pytest.param(300.0, 3.0, marks=XFAIL_BARO_ONLY_TRANSIENT),
+])
 def test_baro_only_transient_in_mid_coast_never_fires_early(subsonic, dh_m, decay_s):
     start = 0.5 * (subsonic.burnout_time_s + subsonic.apogee_time_s)
     drogue, _ = run(subsonic, fault("transient_midcoast", dh_m=dh_m, start_s=start, rise_s=0.1,
