@@ -16,8 +16,11 @@ Methods on each faulted record:
 
 - ``flight-computer``: the exact shared/ code on the board's integer readings, as ``desktop replay``
   feeds it (``desktop.review.replay.readings``, its ground reference and configuration), with the
-  rocket's main altitude and the backup timer set as docs/CONFIG.md tells users: nominal apogee
-  (the undispersed rocket's RocketPy apogee time) + ``BACKUP_MARGIN_S``.
+  rocket's main altitude, and the settings docs/CONFIG.md tells users to take from a simulation
+  of the undispersed rocket (``user_settings``): the backup timer at nominal apogee +
+  ``BACKUP_MARGIN_S``; ``main_delay_s`` the nominal time from apogee to the main altitude and
+  ``main_backup_s`` that less ``MAIN_BACKUP_MARGIN_S``; on barometer-only boards
+  ``mach_lockout_s`` the time the nominal flight slows below Mach 0.8 after burnout + 3 s.
 - ``altos``: AltOS's published algorithm (desktop/study/altos.py), factory-calibrated accelerometer
   (the part's offset and scale error of the record, as a two-point calibration measures them),
   same main altitude, no apogee delay.
@@ -52,6 +55,9 @@ ROCKETS = ("c6_model", "j360_sport", "k400_dual_deploy", "k1000_min_dia", "m1670
 METHODS = ("flight-computer", "altos")
 BOARDS = ("both", "baro")
 BACKUP_MARGIN_S = 3.0  # docs/CONFIG.md: backup_drogue_s a few seconds after the predicted apogee
+MAIN_BACKUP_MARGIN_S = 3.0  # docs/CONFIG.md: main_backup_s a few seconds before the predicted main
+MACH_LOCKOUT_MACH = 0.8  # docs/CONFIG.md: mach_lockout_s when the simulation slows below Mach 0.8,
+MACH_LOCKOUT_MARGIN_S = 3.0  # + 3 s
 EARLY_S = 0.5  # a drogue more than this before true apogee counts as early
 PAD_S = 5.0  # pad time before ignition in every record (the ground reference comes from metadata)
 AFTER_MAIN_S = 3.0  # the record ends this long after the descent crosses the main altitude
@@ -199,16 +205,39 @@ def faulted_record(traj, fault, profile: str, record_seed: int, board, base=None
     return rec, pres, acc, clip
 
 
-def run_methods(rec, pres, acc, clip, board: str, backup_s: float, main_m: float | None) -> dict:
+def user_settings(traj, main_m: float | None) -> dict:
+    """The settings docs/CONFIG.md tells a user to take from a simulation of the rocket
+    (``traj``, the undispersed flight), as configuration overrides: ``backup_drogue_s``,
+    ``main_delay_s`` and ``main_backup_s`` (rockets with a main that the simulation reaches) and,
+    under the key "baro", ``mach_lockout_s`` for a barometer-only board (rockets that reach Mach
+    0.8)."""
+    out = {"backup_drogue_s": round(traj.apogee_time_s + BACKUP_MARGIN_S, 1)}
+    if main_m is not None:
+        below = np.nonzero((traj.time_s > traj.apogee_time_s) & (traj.altitude_m <= main_m))[0]
+        if below.size:
+            delay_s = float(traj.time_s[below[0]]) - traj.apogee_time_s
+            out["main_delay_s"] = round(delay_s, 1)
+            out["main_backup_s"] = round(max(delay_s - MAIN_BACKUP_MARGIN_S, 1.0), 1)
+    slow = np.nonzero((traj.time_s > traj.burnout_time_s) & (traj.mach < MACH_LOCKOUT_MACH))[0]
+    if traj.max_mach >= MACH_LOCKOUT_MACH and slow.size:
+        out["baro"] = {"mach_lockout_s": round(float(traj.time_s[slow[0]]) + MACH_LOCKOUT_MARGIN_S, 1)}
+    return out
+
+
+def run_methods(rec, pres, acc, clip, board: str, backup_s: float, main_m: float | None,
+                settings: dict | None = None) -> dict:
     """{method: (drogue time, main time)} on one faulted record, for a board with both sensors
-    ("both") or a barometer only ("baro", the same record without its accelerometer)."""
+    ("both") or a barometer only ("baro", the same record without its accelerometer).
+    ``settings``: ``user_settings``' overrides (``backup_s`` and ``main_m`` win)."""
     from desktop.study.altos import AltosSettings
 
     par = rec.parameters
     plus = G0 * (1.0 + par["accel_scale_error"]) + par["accel_bias_mps2"]
     minus = -G0 * (1.0 + par["accel_scale_error"]) + par["accel_bias_mps2"]
     log = flight_log(rec.time_s, pres, acc if board == "both" else None, rec.metadata)
-    overrides = {"sensors": board, "backup_drogue_s": backup_s}
+    overrides = {k: v for k, v in (settings or {}).items() if k not in BOARDS}
+    overrides.update((settings or {}).get(board, {}))
+    overrides.update({"sensors": board, "backup_drogue_s": backup_s})
     if main_m is not None:
         overrides["main_deploy_m"] = main_m
     if clip is not None:
@@ -225,7 +254,8 @@ def evaluate(task) -> list[dict]:
     from desktop.io.rocket_file import load_rocket
     from desktop.study.rocket_flight import settings_for
 
-    name, rocket_i, traj_index, flights, seed, cache, backup_s, max_mach = task
+    name, rocket_i, traj_index, flights, seed, cache, user, max_mach = task
+    backup_s = user["backup_drogue_s"]
     traj = trajectory(name, seed, traj_index, cache)
     settings = settings_for(_rocket_path(name), seed)
     spec = load_rocket(_rocket_path(name))
@@ -249,7 +279,7 @@ def evaluate(task) -> list[dict]:
             for board in BOARDS:
                 if board == "baro" and kind not in flt.BARO_CLASSES:
                     continue
-                results = run_methods(rec, pres, acc, clip, board, backup_s, main_m)
+                results = run_methods(rec, pres, acc, clip, board, backup_s, main_m, user)
                 for method in METHODS:
                     d, m = results[method]
                     row = {"rocket": name, "class": kind, "board": board, "method": method, "flight": f,
@@ -437,10 +467,14 @@ def main(argv=None) -> int:
 
     warnings.simplefilter("ignore")
     nominal = {}
+    from desktop.io.rocket_file import load_rocket
+
     for name in args.rockets:
         traj = trajectory(name, args.seed, None, cache)
+        spec = load_rocket(_rocket_path(name))
+        main_m = spec.main.deploy_altitude_m if spec.main is not None else None
         nominal[name] = {"apogee_s": traj.apogee_time_s, "apogee_m": traj.apogee_m, "max_mach": traj.max_mach,
-                         "backup_drogue_s": round(traj.apogee_time_s + BACKUP_MARGIN_S, 1)}
+                         "settings": user_settings(traj, main_m)}
     # trajectory by trajectory across the rockets: an interrupted run still covers every rocket
     tasks = []
     for j in range(trajectories):
@@ -449,8 +483,7 @@ def main(argv=None) -> int:
                 continue
             nm = nominal[name]
             flights = list(range(j, args.flights, trajectories))
-            tasks.append((name, rocket_i, j, flights, args.seed, cache, nm["backup_drogue_s"],
-                          nm["max_mach"]))
+            tasks.append((name, rocket_i, j, flights, args.seed, cache, nm["settings"], nm["max_mach"]))
     rows = []
     from tqdm import tqdm
 
@@ -487,11 +520,14 @@ def main(argv=None) -> int:
     print(f"{args.flights} flights per class, {trajectories} trajectories per rocket, seed {args.seed}, "
           f"{len(rows)} runs in {wall:.0f} s wall on {args.workers} workers")
     print()
-    print("| rocket | nominal apogee | max Mach | backup_drogue_s |")
-    print("|---|---|---|---|")
+    print("| rocket | nominal apogee | max Mach | backup_drogue_s | main_delay_s | main_backup_s | "
+          "mach_lockout_s (baro) |")
+    print("|---|---|---|---|---|---|---|")
     for name, nm in nominal.items():
+        st = nm["settings"]
         print(f"| {name} | {nm['apogee_m']:.0f} m at {nm['apogee_s']:.2f} s | {nm['max_mach']:.2f} | "
-              f"{nm['backup_drogue_s']:g} |")
+              f"{st['backup_drogue_s']:g} | {st.get('main_delay_s', '-')} | {st.get('main_backup_s', '-')} | "
+              f"{st.get('baro', {}).get('mach_lockout_s', '-')} |")
     print()
     for line in overview(summary):
         print(line)

@@ -1,6 +1,7 @@
 """The fault benchmark's corner cases (tools/bench_faults.py), one flight each, through the same
 path as the benchmark: the sensor models, the fault, the flight computer as ``desktop replay`` runs
-it, the backup timer at nominal apogee + 3 s.
+it, configured as docs/CONFIG.md tells users (``bench.user_settings``: the backup timer at nominal
+apogee + 3 s, the main's timers, a barometer-only board's Mach lockout).
 
 Each test states a goal of the issue "Never fooled by one sensor". Where today's flight computer
 misses the goal, the test is marked ``xfail(strict=True)``: it turns into a failure (remove the
@@ -92,8 +93,9 @@ def supersonic():
 def run(traj, fault, board="both", profile="ms5611+adxl375", seed=7):
     """(drogue s, main s) of the flight computer on the faulted record."""
     rec, pres, acc, clip = bench.faulted_record(traj, fault, profile, seed, bench.board_config(100.0))
-    backup_s = round(traj.apogee_time_s + bench.BACKUP_MARGIN_S, 1)
-    return bench.run_methods(rec, pres, acc, clip, board, backup_s, MAIN_M)["flight-computer"]
+    settings = bench.user_settings(traj, MAIN_M)
+    return bench.run_methods(rec, pres, acc, clip, board, settings["backup_drogue_s"], MAIN_M,
+                             settings)["flight-computer"]
 
 
 def fault(kind, **params):
@@ -262,6 +264,23 @@ def test_baro_only_frozen_barometer_never_fires_early(subsonic):
 
 
 # --- the tool -----------------------------------------------------------------------------------
+
+
+def test_user_settings_follow_config_md(subsonic, supersonic):
+    """docs/CONFIG.md's recipes: backup timer at apogee + 3 s, main_delay_s the time from apogee
+    to the main altitude, main_backup_s 3 s less, mach_lockout_s (barometer-only boards) the time
+    the flight slows below Mach 0.8 + 3 s, and none for a rocket that never reaches Mach 0.8."""
+    sub = bench.user_settings(subsonic, MAIN_M)
+    assert sub["backup_drogue_s"] == round(subsonic.apogee_time_s + 3.0, 1)
+    at_main_s = subsonic.apogee_time_s + sub["main_delay_s"]
+    assert abs(np.interp(at_main_s, subsonic.time_s, subsonic.altitude_m) - MAIN_M) < 2.0  # 20 m/s x 0.05 s
+    assert sub["main_backup_s"] == round(sub["main_delay_s"] - 3.0, 1)
+    assert "baro" not in sub
+    sup = bench.user_settings(supersonic, None)
+    assert "main_delay_s" not in sup
+    lockout_s = sup["baro"]["mach_lockout_s"] - 3.0
+    assert np.interp(lockout_s, supersonic.time_s, supersonic.mach) == pytest.approx(0.8, abs=0.01)
+    assert lockout_s > supersonic.burnout_time_s
 
 
 def test_unknown_rocket_is_a_one_line_error(capsys):
