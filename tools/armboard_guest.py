@@ -211,20 +211,22 @@ def count_filter(flight, phases, rate_hz, lock=True):
 
 # (label, object path from the flight computer or "module:" + module name, attribute, arity)
 PROFILE = (
-    ("FlightComputer._arbitrate", "fc", "_arbitrate", 5),
-    ("FlightComputer._set_baro_weight", "fc", "_set_baro_weight", 0),
-    ("FlightComputer._set_model", "fc", "_set_model", 1),
-    ("FlightComputer._apogee_enabled", "fc", "_apogee_enabled", 0),
-    ("FlightComputer._accel_only_apogee", "fc", "_accel_only_apogee", 0),
-    ("FlightComputer._update_averages", "fc", "_update_averages", 3),
-    ("FlightComputer._update_boost", "fc", "_update_boost", 5),
-    ("FlightComputer._integrate_accel", "fc", "_integrate_accel", 3),
-    ("FlightComputer._transition", "fc", "_transition", 1),
-    ("FlightComputer._false_launch", "fc", "_false_launch", 0),
-    ("FlightComputer._drogue_rule", "fc", "_drogue_rule", 1),
-    ("FlightComputer._landing_rule", "fc", "_landing_rule", 0),
-    ("FlightComputer._check_proof", "fc", "_check_proof", 1),
-    ("FlightComputer._pyro", "fc", "_pyro", 0),
+    ("flight._arbitrate", "module:shared.flight", "_arbitrate", 8),
+    ("flight._baro_weight_256", "module:shared.flight", "_baro_weight_256", 4),
+    ("flight._coast_model", "module:shared.flight", "_coast_model", 2),
+    ("flight._apogee_enabled", "module:shared.flight", "_apogee_enabled", 3),
+    ("flight._accel_only_apogee", "module:shared.flight", "_accel_only_apogee", 1),
+    ("flight._update_averages", "module:shared.flight", "_update_averages", 5),
+    ("flight._update_measured", "module:shared.flight", "_update_measured", 5),
+    ("flight._update_boost", "module:shared.flight", "_update_boost", 7),
+    ("flight._integrate_accel", "module:shared.flight", "_integrate_accel", 5),
+    ("flight._transition", "module:shared.flight", "_transition", 4),
+    ("flight._false_launch", "module:shared.flight", "_false_launch", 2),
+    ("flight._drogue_rule", "module:shared.flight", "_drogue_rule", 4),
+    ("flight._backup_rule", "module:shared.flight", "_backup_rule", 2),
+    ("flight._landing_rule", "module:shared.flight", "_landing_rule", 2),
+    ("flight._check_proof", "module:shared.flight", "_check_proof", 3),
+    ("flight._pyro", "module:shared.flight", "_pyro", 2),
     ("flight._ema", "module:shared.flight", "_ema", 4),
     ("SensorHealth.judge", "health", "judge", 3),
     ("SensorHealth.watch", "health", "watch", 5),
@@ -339,6 +341,20 @@ def _wrapper(fn, obj, slot, arity):
                 d = _p_enter()
                 t0 = _tc()
                 r = _f(a, b, c, e, f, h)
+                _p_leave(d, _s, _td(_tc(), t0))
+                return r
+        elif arity == 7:
+            def w(a, b, c, e, f, h, i, _f=fn, _s=slot, _tc=tc, _td=td):
+                d = _p_enter()
+                t0 = _tc()
+                r = _f(a, b, c, e, f, h, i)
+                _p_leave(d, _s, _td(_tc(), t0))
+                return r
+        elif arity == 8:
+            def w(a, b, c, e, f, h, i, j, _f=fn, _s=slot, _tc=tc, _td=td):
+                d = _p_enter()
+                t0 = _tc()
+                r = _f(a, b, c, e, f, h, i, j)
                 _p_leave(d, _s, _td(_tc(), t0))
                 return r
         else:
