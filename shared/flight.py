@@ -286,6 +286,8 @@ class FlightComputer:
         self.pyro_main = False
         self.pyro_backup_drogue = False
         self.pyro_backup_main = False
+        self._det_phase = -1  # the phase the detector is configured for (see step)
+        self._pulses = 0  # pulses on (_pyro ends them; 0: nothing to do)
         self._drogue_off_ms = 0
         self._main_off_ms = 0
         self._backup_drogue_off_ms = 0
@@ -383,27 +385,27 @@ class FlightComputer:
             # after burnout drag only decelerates: an axial specific force above +0.5 g is the
             # motor's tail-off, an ejection charge, a shock or a tumbling rocket (no staging)
             have &= HAVE_BARO
+        # the detector's configuration for the phase, set when the phase changes: the state, a
+        # resumed filter settling, the first 0.5 s after burnout (the motor's tail-off is a real,
+        # fast change: no gates yet)
+        phase = state
+        if resuming:
+            phase += 8
+        elif state >= FAST and now_ms - self.burnout_ms < _GATE_START_MS:
+            phase += 16
         det = self.det
-        # gates from 0.5 s after burnout: the motor's tail-off is a real, fast change
-        if state >= FAST and not (resuming or now_ms - self.burnout_ms < _GATE_START_MS):
-            det.gate_alt_mm = GATE_ALT_MM
-            det.gate_acc_mmps2 = GATE_ACC_MMPS2
-        elif state == BOOST and not resuming:
-            det.gate_alt_mm = cfg.boost_gate_mm  # a wide gate from the first sample of boost
-            det.gate_acc_mmps2 = 0
-        else:
-            det.gate_alt_mm = 0
-            det.gate_acc_mmps2 = 0
-        # after a reset the plain model: the saved velocity may be old, the filter re-learns it
-        det.model = _coast_model(mode, kf.vel_q4 >> 4) if state == COAST and not resuming else MODEL_PLAIN
-        # coasting: gravity and drag, never an upward push
-        det.acc_max_q4 = COAST_ACC_MAX_Q4 if coasting else RATE_LIMIT_Q4
-        baro_alone = state >= DROGUE or resuming
-        if baro_alone:
+        if phase != self._det_phase:
+            self._det_phase = phase
+            _configure_detector(det, cfg, state, resuming, phase != state)
+        if state >= DROGUE or resuming:
             # under a parachute the orientation is unknown; a resumed filter follows the
             # barometer alone (see restore_state)
             have &= HAVE_BARO
-        det.accel_off = baro_alone
+        # after a reset the plain model: the saved velocity may be old, the filter re-learns it
+        if state == COAST and not resuming:
+            det.model = _coast_model(mode, kf.vel_q4 >> 4)
+        else:
+            det.model = MODEL_PLAIN
         if dt_us:
             enabled = state == COAST and _apogee_enabled(self, cfg, now_ms)
             if cfg.baro_lag_ms and have & HAVE_BARO:
@@ -435,9 +437,8 @@ class FlightComputer:
                 self._good_ms = now_ms
         if state < DROGUE:
             # the averages of the ascent's decisions (the apogee gate, a false launch at rest)
-            _update_averages(self, kf, dt_ms, alt_mm, have)
-            if measured_acc:
-                _update_measured(self, cfg, state, acc_kin, accel_since_us // 1000)
+            accel_ms = accel_since_us // 1000 if measured_acc else -1
+            _update_averages(self, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms)
         if state <= BOOST:
             _update_boost(self, cfg, accel_interval_us, accel_period_us, acc_kin, have, clipped)
         if accel_read and not self.flight_proven:
@@ -450,7 +451,8 @@ class FlightComputer:
             self.max_vel_mmps = vel_mmps
         if self.launched and not self.flight_proven:
             _check_proof(self, cfg, dt_ms)
-        _pyro(self, now_ms)
+        if self._pulses:
+            _pyro(self, now_ms)
 
     def _launch(self, by_height):
         """Leave the pad. The ground is the reference from the samples ending at least 0.2 s
@@ -471,6 +473,7 @@ class FlightComputer:
         self.drogue_fired_ms = self.now_ms
         self._drogue_off_ms = self.now_ms + self.cfg.pulse_ms
         self.pyro_drogue = True
+        self._pulses += 1
         self.events |= EV_DROGUE
         self.state = DROGUE
         self._land_start_ms = self.now_ms
@@ -480,6 +483,7 @@ class FlightComputer:
         self.main_fired_ms = self.now_ms
         self._main_off_ms = self.now_ms + self.cfg.pulse_ms
         self.pyro_main = True
+        self._pulses += 1
         self.events |= EV_MAIN
         self.state = MAIN
 
@@ -487,12 +491,14 @@ class FlightComputer:
         self.backup_drogue_fired_ms = self.now_ms
         self._backup_drogue_off_ms = self.now_ms + self.cfg.pulse_ms
         self.pyro_backup_drogue = True
+        self._pulses += 1
         self.events |= EV_BACKUP_DROGUE
 
     def _fire_backup_main(self):
         self.backup_main_fired_ms = self.now_ms
         self._backup_main_off_ms = self.now_ms + self.cfg.pulse_ms
         self.pyro_backup_main = True
+        self._pulses += 1
         self.events |= EV_BACKUP_MAIN
 
     # Resume after a reset in flight (docs/DESIGN.md D3, D14). The record is the smallest that
@@ -608,6 +614,23 @@ def _baro_weight_256(cfg, state, mode, vel_mmps):
     return 256 - (256 - cfg.mach_baro_weight_256) * (over >> 4) // (span >> 4)
 
 
+def _configure_detector(det, cfg, state, resuming, settling):
+    """The detector's gates, acceleration ceiling and use of the accelerometer for the phase
+    (``settling``: resuming, or within 0.5 s of burnout)."""
+    if state >= FAST and not settling:
+        det.gate_alt_mm = GATE_ALT_MM
+        det.gate_acc_mmps2 = GATE_ACC_MMPS2
+    elif state == BOOST and not resuming:
+        det.gate_alt_mm = cfg.boost_gate_mm  # a wide gate from the first sample of boost
+        det.gate_acc_mmps2 = 0
+    else:
+        det.gate_alt_mm = 0
+        det.gate_acc_mmps2 = 0
+    # coasting: gravity and drag, never an upward push
+    det.acc_max_q4 = COAST_ACC_MAX_Q4 if state == FAST or state == COAST else RATE_LIMIT_Q4
+    det.accel_off = state >= DROGUE or resuming  # (step uses the barometer alone then)
+
+
 def _coast_model(mode, vel_mmps):
     """The correction model in coast: the accelerometer's bias estimated; below _LATE_COAST_MMPS
     the acceleration taken as -g (tools/gen_gains.py explains the physics and the numbers). Fast
@@ -636,9 +659,10 @@ def _apogee_enabled(fc, cfg, now_ms):
             and (fc.mode & MODE_ACCEL or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4))
 
 
-def _update_averages(fc, kf, dt_ms, alt_mm, have):
-    """The apogee gate's averages: the filter's acceleration, and the squared distance between
-    the barometer and the filter."""
+def _update_averages(fc, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms):
+    """The ascent's averages: the filter's acceleration and the squared distance between the
+    barometer and the filter (the apogee gate), and the measured acceleration (a usable reading,
+    held ``accel_ms``; -1: none) with the coast it shows."""
     fc.acc_avg_q4 = _ema(fc.acc_avg_q4, kf.acc_q4, dt_ms, _DECEL_TAU_MS)
     if have & HAVE_BARO:
         resid_m = (alt_mm - (kf.alt_q4 >> 4)) // 1000
@@ -646,16 +670,16 @@ def _update_averages(fc, kf, dt_ms, alt_mm, have):
             resid_m = -resid_m
         if resid_m > _RESID_CAP_M:
             resid_m = _RESID_CAP_M
-        fc.resid_sq_avg_q4 = _ema(fc.resid_sq_avg_q4, resid_m * resid_m << 4, dt_ms, _RESID_TAU_MS)
-
-
-def _update_measured(fc, cfg, state, acc_kin, dt_ms):
-    """The averaged measured acceleration (a usable reading, held ``dt_ms``), and the coast it
-    shows."""
-    avg = _ema(fc.acc_meas_avg, acc_kin, dt_ms, _DECEL_TAU_MS)
-    fc.acc_meas_avg = avg
-    if state != PAD and avg <= -cfg.coast_decel_mmps2:
-        fc.coast_measured = True
+        # averaged as _ema averages, without its clamp: the squares lie within 0..2**18 (and so
+        # does their average), every step is far inside its 2**20
+        tau_dt_ms = dt_ms if dt_ms < _RESID_TAU_MS else _RESID_TAU_MS
+        avg = fc.resid_sq_avg_q4
+        fc.resid_sq_avg_q4 = avg + ((resid_m * resid_m << 4) - avg) * tau_dt_ms // _RESID_TAU_MS
+    if accel_ms >= 0:
+        avg = _ema(fc.acc_meas_avg, acc_kin, accel_ms, _DECEL_TAU_MS)
+        fc.acc_meas_avg = avg
+        if state != PAD and avg <= -cfg.coast_decel_mmps2:
+            fc.coast_measured = True
 
 
 def _update_boost(fc, cfg, accel_interval_us, accel_period_us, acc_kin, have, clipped):
@@ -889,15 +913,19 @@ def _landing_rule(fc, cfg):
 
 
 def _pyro(fc, now_ms):
-    """Each pulse ends when its time is over."""
+    """Each pulse ends when its time is over (while any is on: the caller's test)."""
     if fc.pyro_drogue and now_ms >= fc._drogue_off_ms:
         fc.pyro_drogue = False
+        fc._pulses -= 1
     if fc.pyro_main and now_ms >= fc._main_off_ms:
         fc.pyro_main = False
+        fc._pulses -= 1
     if fc.pyro_backup_drogue and now_ms >= fc._backup_drogue_off_ms:
         fc.pyro_backup_drogue = False
+        fc._pulses -= 1
     if fc.pyro_backup_main and now_ms >= fc._backup_main_off_ms:
         fc.pyro_backup_main = False
+        fc._pulses -= 1
 
 
 # Sensor arbitration and degraded modes (docs/DESIGN.md, "Sensor arbitration").

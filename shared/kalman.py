@@ -118,7 +118,23 @@ def _add2(kf, eh, ea, rh, ra, i):
     m = ra[i + 10]
     s = ra[i + 11]
     acc += (ha * m + ((la * m + (1 << (s - 1))) >> 14)) >> (s - 14)
-    _store(kf, alt, vel, acc)
+    # the state stored, clamped to its limits (written out: a call of a helper for it cost a
+    # tenth of a correction on MicroPython)
+    if alt > ALT_LIMIT_Q4:
+        alt = ALT_LIMIT_Q4
+    elif alt < -ALT_LIMIT_Q4:
+        alt = -ALT_LIMIT_Q4
+    if vel > RATE_LIMIT_Q4:
+        vel = RATE_LIMIT_Q4
+    elif vel < -RATE_LIMIT_Q4:
+        vel = -RATE_LIMIT_Q4
+    if acc > RATE_LIMIT_Q4:
+        acc = RATE_LIMIT_Q4
+    elif acc < -RATE_LIMIT_Q4:
+        acc = -RATE_LIMIT_Q4
+    kf.alt_q4 = alt
+    kf.vel_q4 = vel
+    kf.acc_q4 = acc
 
 
 def _add(kf, e, row, i, stride):
@@ -138,11 +154,8 @@ def _add(kf, e, row, i, stride):
     m = row[i]
     s = row[i + 1]
     acc = kf.acc_q4 + ((hi * m + ((lo * m + (1 << (s - 1))) >> 14)) >> (s - 14))
-    _store(kf, alt, vel, acc)
-
-
-def _store(kf, alt, vel, acc):
-    """Store the state, clamped to its limits."""
+    # the state stored, clamped to its limits (written out: a call of a helper for it cost a
+    # tenth of a correction on MicroPython)
     if alt > ALT_LIMIT_Q4:
         alt = ALT_LIMIT_Q4
     elif alt < -ALT_LIMIT_Q4:
@@ -194,11 +207,22 @@ class Kalman:
     def predict(self, row):
         """Advance the state by one period T = 1 / row[0] s (constant-acceleration model)."""
         rate = row[0]
-        acc = self.acc_q4
         vel = self.vel_q4
-        dv = (acc + (rate >> 1)) // rate  # a*T, rounded
-        # h += v*T + a*T^2/2 = (2v + a*T) / (2 rate), rounded
-        _store(self, self.alt_q4 + (2 * vel + dv + rate) // (2 * rate), vel + dv, acc)
+        dv = (self.acc_q4 + (rate >> 1)) // rate  # a*T, rounded
+        # h += v*T + a*T^2/2 = (2v + a*T) / (2 rate), rounded; the acceleration stays as it is
+        # (within its limits: every store of it clamps it)
+        alt = self.alt_q4 + (2 * vel + dv + rate) // (2 * rate)
+        if alt > ALT_LIMIT_Q4:
+            alt = ALT_LIMIT_Q4
+        elif alt < -ALT_LIMIT_Q4:
+            alt = -ALT_LIMIT_Q4
+        vel += dv
+        if vel > RATE_LIMIT_Q4:
+            vel = RATE_LIMIT_Q4
+        elif vel < -RATE_LIMIT_Q4:
+            vel = -RATE_LIMIT_Q4
+        self.alt_q4 = alt
+        self.vel_q4 = vel
 
     def correct(self, row_alt, row_acc, alt_mm, acc_mmps2):
         """Correct with a barometric altitude (mm) and a kinematic acceleration (mm/s^2); each

@@ -213,11 +213,11 @@ def count_filter(flight, phases, rate_hz, lock=True):
 PROFILE = (
     ("flight._arbitrate", "module:shared.flight", "_arbitrate", 8),
     ("flight._baro_weight_256", "module:shared.flight", "_baro_weight_256", 4),
+    ("flight._configure_detector", "module:shared.flight", "_configure_detector", 5),
     ("flight._coast_model", "module:shared.flight", "_coast_model", 2),
     ("flight._apogee_enabled", "module:shared.flight", "_apogee_enabled", 3),
     ("flight._accel_only_apogee", "module:shared.flight", "_accel_only_apogee", 1),
-    ("flight._update_averages", "module:shared.flight", "_update_averages", 5),
-    ("flight._update_measured", "module:shared.flight", "_update_measured", 5),
+    ("flight._update_averages", "module:shared.flight", "_update_averages", 9),
     ("flight._update_boost", "module:shared.flight", "_update_boost", 7),
     ("flight._integrate_accel", "module:shared.flight", "_integrate_accel", 5),
     ("flight._transition", "module:shared.flight", "_transition", 4),
@@ -259,10 +259,8 @@ PROFILE = (
     ("kalman._accel_innovation", "module:shared.kalman", "_accel_innovation", 2),
     ("kalman._add2", "module:shared.kalman", "_add2", 6),
     ("kalman._add", "module:shared.kalman", "_add", 5),
-    ("kalman._store", "module:shared.kalman", "_store", 4),
     ("kalman._mul_gain", "module:shared.kalman", "_mul_gain", 3),
     ("kalman._innovation", "module:shared.kalman", "_innovation", 2),
-    ("detector._clamp", "module:shared.detector", "_clamp", 1),
 )
 _P_MAX_DEPTH = 16
 _p_depth = array("i", [0])
@@ -355,6 +353,13 @@ def _wrapper(fn, obj, slot, arity):
                 d = _p_enter()
                 t0 = _tc()
                 r = _f(a, b, c, e, f, h, i, j)
+                _p_leave(d, _s, _td(_tc(), t0))
+                return r
+        elif arity == 9:
+            def w(a, b, c, e, f, h, i, j, k, _f=fn, _s=slot, _tc=tc, _td=td):
+                d = _p_enter()
+                t0 = _tc()
+                r = _f(a, b, c, e, f, h, i, j, k)
                 _p_leave(d, _s, _td(_tc(), t0))
                 return r
         else:
