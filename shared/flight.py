@@ -374,7 +374,8 @@ class FlightComputer:
         acc_kin = accel_mmps2 - self.one_g_mmps2
         have = _arbitrate(self, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped)
         mode = self.mode
-        kf.baro_weight_256 = _baro_weight_256(cfg, state, mode, kf.vel_q4 >> 4)
+        prior_vel_mmps = kf.vel_q4 >> 4
+        _set_baro_weight(kf, cfg, state, mode, prior_vel_mmps)
         if have & HAVE_BARO and self._reanchor:
             # after a reset, or the barometer back from an exclusion: its altitude, not its path
             self._reanchor = False
@@ -403,7 +404,7 @@ class FlightComputer:
             have &= HAVE_BARO
         # after a reset the plain model: the saved velocity may be old, the filter re-learns it
         if state == COAST and not resuming:
-            det.model = _coast_model(mode, kf.vel_q4 >> 4)
+            det.model = _coast_model(mode, prior_vel_mmps)
         else:
             det.model = MODEL_PLAIN
         if dt_us:
@@ -598,20 +599,20 @@ class FlightComputer:
 # (see step).
 
 
-def _baro_weight_256(cfg, state, mode, vel_mmps):
+def _set_baro_weight(kf, cfg, state, mode, vel_mmps):
     """AltOS-style Mach de-weighting: full weight up to the lockout speed, then a ramp down to
     mach_baro_weight_pct at 1.32 x lockout; ascent only, and only while the accelerometer is
     in use: de-weighting the only sensor would leave the filter coasting on an acceleration
     no reading corrects (an accelerometer lost in boost kept the motor's thrust in it)."""
-    if state >= DROGUE or not mode & MODE_ACCEL:
-        return 256
     over = vel_mmps - cfg.mach_lockout_mmps
-    if over <= 0:
-        return 256
+    if state >= DROGUE or not mode & MODE_ACCEL or over <= 0:
+        kf.baro_weight_256 = 256
+        return
     span = cfg.mach_lockout_mmps * 32 // 100
     if over >= span:
-        return cfg.mach_baro_weight_256
-    return 256 - (256 - cfg.mach_baro_weight_256) * (over >> 4) // (span >> 4)
+        kf.baro_weight_256 = cfg.mach_baro_weight_256
+    else:
+        kf.baro_weight_256 = 256 - (256 - cfg.mach_baro_weight_256) * (over >> 4) // (span >> 4)
 
 
 def _configure_detector(det, cfg, state, resuming, settling):

@@ -60,25 +60,19 @@ def _mul_gain(e, m, s):
     return ((e >> 14) * m + (((e & 0x3FFF) * m + (1 << (s - 1))) >> 14)) >> (s - 14)
 
 
-def _innovation(meas_mm, state_q4):
-    """(meas << 4) - state, with the measurement clamped to +-MEAS_LIMIT_MM and the result to
-    +-_INNOV_LIMIT; |state_q4| <= 2**29 keeps the difference inside 31 bits."""
-    if meas_mm > MEAS_LIMIT_MM:
-        meas_mm = MEAS_LIMIT_MM
-    elif meas_mm < -MEAS_LIMIT_MM:
-        meas_mm = -MEAS_LIMIT_MM
-    e = (meas_mm << 4) - state_q4
-    if e > _INNOV_LIMIT:
-        return _INNOV_LIMIT
-    if e < -_INNOV_LIMIT:
-        return -_INNOV_LIMIT
-    return e
-
-
 def _baro_innovation(kf, alt_mm):
-    """The barometric innovation, kept in ``innov_alt_q4``, then weighted (Mach de-weighting)."""
-    e = _innovation(alt_mm, kf.alt_q4)
-    kf.innov_alt_q4 = e
+    """The barometric innovation (alt << 4) - alt_q4, the reading clamped to +-MEAS_LIMIT_MM and
+    the result to +-_INNOV_LIMIT (|alt_q4| <= 2**29 keeps the difference inside 31 bits), then
+    weighted (Mach de-weighting)."""
+    if alt_mm > MEAS_LIMIT_MM:
+        alt_mm = MEAS_LIMIT_MM
+    elif alt_mm < -MEAS_LIMIT_MM:
+        alt_mm = -MEAS_LIMIT_MM
+    e = (alt_mm << 4) - kf.alt_q4
+    if e > _INNOV_LIMIT:
+        e = _INNOV_LIMIT
+    elif e < -_INNOV_LIMIT:
+        e = -_INNOV_LIMIT
     weight = kf.baro_weight_256
     if weight < 256:
         e = (e >> 8) * weight
@@ -86,8 +80,18 @@ def _baro_innovation(kf, alt_mm):
 
 
 def _accel_innovation(kf, acc_mmps2):
-    # acc_q4 + bias_q4 stays within 2**28 (both clamped to 2**27): the sum is inside 31 bits
-    return _innovation(acc_mmps2, kf.acc_q4 + kf.bias_q4)
+    """The accelerometer's innovation (acc << 4) - (acc_q4 + bias_q4), clamped as the barometer's:
+    acc_q4 + bias_q4 stays within 2**28 (both clamped to 2**27), the difference inside 31 bits."""
+    if acc_mmps2 > MEAS_LIMIT_MM:
+        acc_mmps2 = MEAS_LIMIT_MM
+    elif acc_mmps2 < -MEAS_LIMIT_MM:
+        acc_mmps2 = -MEAS_LIMIT_MM
+    e = (acc_mmps2 << 4) - (kf.acc_q4 + kf.bias_q4)
+    if e > _INNOV_LIMIT:
+        return _INNOV_LIMIT
+    if e < -_INNOV_LIMIT:
+        return -_INNOV_LIMIT
+    return e
 
 
 def _add2(kf, eh, ea, rh, ra, i):
@@ -191,7 +195,6 @@ class Kalman:
         self.bias_q4 = 0
         self.baro_weight_256 = 256  # barometer innovations are scaled by this / 256 (Mach de-weighting)
         self.bias_limit_q4 = RATE_LIMIT_Q4  # |bias_q4| at most this: the bias a real sensor can have
-        self.innov_alt_q4 = 0  # last barometric innovation, before weighting
 
     def reset(self, alt_mm, vel_mmps=0, acc_mmps2=0):
         """Set the state from values in mm, mm/s, mm/s^2."""

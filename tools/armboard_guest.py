@@ -212,7 +212,7 @@ def count_filter(flight, phases, rate_hz, lock=True):
 # (label, object path from the flight computer or "module:" + module name, attribute, arity)
 PROFILE = (
     ("flight._arbitrate", "module:shared.flight", "_arbitrate", 8),
-    ("flight._baro_weight_256", "module:shared.flight", "_baro_weight_256", 4),
+    ("flight._set_baro_weight", "module:shared.flight", "_set_baro_weight", 5),
     ("flight._configure_detector", "module:shared.flight", "_configure_detector", 5),
     ("flight._coast_model", "module:shared.flight", "_coast_model", 2),
     ("flight._apogee_enabled", "module:shared.flight", "_apogee_enabled", 3),
@@ -260,7 +260,6 @@ PROFILE = (
     ("kalman._add2", "module:shared.kalman", "_add2", 6),
     ("kalman._add", "module:shared.kalman", "_add", 5),
     ("kalman._mul_gain", "module:shared.kalman", "_mul_gain", 3),
-    ("kalman._innovation", "module:shared.kalman", "_innovation", 2),
 )
 _P_MAX_DEPTH = 16
 _p_depth = array("i", [0])
@@ -625,7 +624,7 @@ def op_costs():
 
     def store():
         t0 = tc()
-        kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x  # noqa: E501, E702
+        kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x  # noqa: E501, E702
         return td(tc(), t0)
 
     def subscr():
