@@ -245,8 +245,20 @@ class Kalman:
         eh = _baro_innovation(self, alt_mm)
         ea = _accel_innovation(self, acc_mmps2)
         _add2(self, eh, ea, row_alt, row_acc, 25)
-        self.bias_q4 = _clamp(self.bias_q4 + _mul_gain(eh, row_alt[37], row_alt[38])
-                              + _mul_gain(ea, row_acc[39], row_acc[40]), self.bias_limit_q4)
+        # the bias gains' products as _mul_gain's, written out as in _add2 (coast runs this on
+        # most samples)
+        m = row_alt[37]
+        s = row_alt[38]
+        bias = self.bias_q4 + (((eh >> 14) * m + (((eh & 0x3FFF) * m + (1 << (s - 1))) >> 14)) >> (s - 14))
+        m = row_acc[39]
+        s = row_acc[40]
+        bias += ((ea >> 14) * m + (((ea & 0x3FFF) * m + (1 << (s - 1))) >> 14)) >> (s - 14)
+        limit = self.bias_limit_q4
+        if bias > limit:
+            bias = limit
+        elif bias < -limit:
+            bias = -limit
+        self.bias_q4 = bias
 
     def correct_baro_part(self, row, alt_mm, coast):
         """Correct with a barometric altitude (mm) through the barometer's column of the two-sensor

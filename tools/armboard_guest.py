@@ -227,7 +227,6 @@ PROFILE = (
     ("flight._landing_rule", "module:shared.flight", "_landing_rule", 2),
     ("flight._check_proof", "module:shared.flight", "_check_proof", 3),
     ("flight._pyro", "module:shared.flight", "_pyro", 2),
-    ("flight._ema", "module:shared.flight", "_ema", 4),
     ("SensorHealth.judge", "health", "judge", 3),
     ("SensorHealth.watch", "health", "watch", 5),
     ("SensorHealth.age", "health", "age", 2),
