@@ -86,6 +86,7 @@ except ImportError:
 
 from shared.apogee import SeedRule, VelocityRule
 from shared.arbitration import Arbitration
+from shared.attrs import make_room
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
 from shared.health import HEALTH_ACCEL_BAD, HEALTH_BARO_BAD, SensorHealth
@@ -288,6 +289,9 @@ class FlightComputer:
         self.vel_mmps = 0
         self.settle_until_ms = 0  # after a resume: no apogee decision before this
         self._gap_us = 0  # after a resume: the time the reset cost, predicted across
+        # room in the attribute tables of the objects each sample uses (MicroPython's speed)
+        for obj in (self, config, self.det, self.kf, self.health, self.arb, self.pad):
+            make_room(obj)
 
     @property
     def ground_fixed(self):
