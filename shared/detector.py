@@ -60,14 +60,6 @@ SCHEDULE_US = const(150000)
 _SINCE_LIMIT_US = const(0xFFFFFFF)
 
 
-def _clamp(x):
-    if x > MEAS_LIMIT_MM:
-        return MEAS_LIMIT_MM
-    if x < -MEAS_LIMIT_MM:
-        return -MEAS_LIMIT_MM
-    return x
-
-
 class Detector:
     """Kalman filter plus an apogee rule, stepped once per sample.
 
@@ -136,27 +128,43 @@ class Detector:
             kf.predict(row)
         else:
             self._predict_irregular(dt_us)
-        # each sensor's clocks advance by dt_us; a fresh reading measures its interval
+        # each sensor's clocks advance by dt_us; a fresh reading measures its interval (written out
+        # for the two sensors: a loop over them cost a tenth of the step)
         seen = self.seen_us
-        used = self.used_us
         interval = self.interval_us
-        for sensor in range(2):  # barometer, accelerometer: their flags are HAVE_BARO << sensor
-            t = seen[sensor] + dt_us
-            if t > _SINCE_LIMIT_US:
-                t = _SINCE_LIMIT_US
-            if have & (HAVE_BARO << sensor):
-                interval[sensor] = t
-                t = 0
-            seen[sensor] = t
-            t = used[sensor] + dt_us
-            used[sensor] = t if t < _SINCE_LIMIT_US else _SINCE_LIMIT_US
-        if self.accel_off:
-            seen[1] = 0
+        t = seen[0] + dt_us
+        if t > _SINCE_LIMIT_US:
+            t = _SINCE_LIMIT_US
+        if have & HAVE_BARO:
+            interval[0] = t
+            t = 0
+        seen[0] = t
+        t = seen[1] + dt_us
+        if t > _SINCE_LIMIT_US:
+            t = _SINCE_LIMIT_US
+        if have & HAVE_ACCEL:
+            interval[1] = t
+            t = 0
+        accel_off = self.accel_off
+        seen[1] = 0 if accel_off else t
+        used = self.used_us
+        used_baro_us = used[0] + dt_us
+        if used_baro_us > _SINCE_LIMIT_US:
+            used_baro_us = _SINCE_LIMIT_US
+        used_acc_us = used[1] + dt_us
+        if used_acc_us > _SINCE_LIMIT_US:
+            used_acc_us = _SINCE_LIMIT_US
         # innovation gates: a reading inside a closed gate is used at once; the rest is _outlier's
+        # (the reading clamped as the filter clamps it)
         if have & HAVE_BARO:
             gate = self.gate_alt_mm
             if gate:
-                e = _clamp(alt_mm) - (kf.alt_q4 >> 4)
+                e = alt_mm
+                if e > MEAS_LIMIT_MM:
+                    e = MEAS_LIMIT_MM
+                elif e < -MEAS_LIMIT_MM:
+                    e = -MEAS_LIMIT_MM
+                e -= kf.alt_q4 >> 4
                 if -gate <= e <= gate and self.inside_us[0] < 0:
                     self.outlier_us[0] = 0
                 elif self._outlier(e, gate, 0, BARO_RESYNC_US):
@@ -164,7 +172,12 @@ class Detector:
         if have & HAVE_ACCEL:
             gate = self.gate_acc_mmps2
             if gate:
-                e = _clamp(acc_mmps2) - (kf.acc_q4 >> 4)
+                e = acc_mmps2
+                if e > MEAS_LIMIT_MM:
+                    e = MEAS_LIMIT_MM
+                elif e < -MEAS_LIMIT_MM:
+                    e = -MEAS_LIMIT_MM
+                e -= kf.acc_q4 >> 4
                 if -gate <= e <= gate and self.inside_us[1] < 0:
                     self.outlier_us[1] = 0
                 elif self._outlier(e, gate, 1, ACCEL_RESYNC_US):
@@ -187,19 +200,17 @@ class Detector:
         # a reading alone takes its column of the two-sensor gains while the other sensor is on
         # schedule: it has a used reading within SCHEDULE_US (the accelerometer: and is not off)
         elif have == HAVE_BARO:
-            if not self.accel_off and interval[1] > 0 and used[1] < SCHEDULE_US:
+            if not accel_off and interval[1] > 0 and used_acc_us < SCHEDULE_US:
                 kf.correct_baro_part(row_baro, alt_mm, model == MODEL_BIAS)
             else:
                 kf.correct_baro(row_baro, alt_mm)
         elif have == HAVE_ACCEL:
-            if interval[0] > 0 and used[0] < SCHEDULE_US:
+            if interval[0] > 0 and used_baro_us < SCHEDULE_US:
                 kf.correct_accel_part(row_acc, acc_mmps2, model == MODEL_BIAS)
             else:
                 kf.correct_accel(row_acc, acc_mmps2)
-        if have & HAVE_BARO:
-            used[0] = 0
-        if have & HAVE_ACCEL:
-            used[1] = 0
+        used[0] = 0 if have & HAVE_BARO else used_baro_us
+        used[1] = 0 if have & HAVE_ACCEL else used_acc_us
         if kf.acc_q4 > self.acc_max_q4:
             kf.acc_q4 = self.acc_max_q4
         return self.rule.update(kf, row[0], enabled)

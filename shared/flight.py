@@ -86,6 +86,7 @@ except ImportError:
 
 from shared.apogee import SeedRule, VelocityRule
 from shared.arbitration import Arbitration
+from shared.attrs import make_room
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
 from shared.health import HEALTH_ACCEL_BAD, HEALTH_BARO_BAD, SensorHealth
@@ -196,18 +197,6 @@ ERR_ACCEL_CLIPPED = const(2)  # at least one reading at the accelerometer's full
 ERR_FALSE_LAUNCH = const(16)  # a launch without proof of flight went back to pad mode
 
 
-def _ema(avg, x, dt_ms, tau_ms):
-    """Exponential average with time constant tau_ms, in 31 bits: the step is clamped to 2**20."""
-    if dt_ms > tau_ms:
-        dt_ms = tau_ms
-    diff = x - avg
-    if diff > _EMA_STEP_LIMIT:
-        diff = _EMA_STEP_LIMIT
-    elif diff < -_EMA_STEP_LIMIT:
-        diff = -_EMA_STEP_LIMIT
-    return avg + diff * dt_ms // tau_ms
-
-
 class FlightComputer:
     """The flight state machine over the Kalman detector. See the module docstring."""
 
@@ -227,7 +216,9 @@ class FlightComputer:
         self.arb = Arbitration(config)
         self.mode = (MODE_BARO if config.has_baro else 0) | (MODE_ACCEL if config.has_accel else 0)
         self.baro_excluded = False  # coast: the barometer disagrees with the accelerometer's bounds
-        self._reanchor = False  # re-take the barometer's altitude at its next reading
+        # re-take the barometer's altitude at its next reading (after a resume, or the barometer
+        # back from an exclusion)
+        self._reanchor = False
         self._steady_agl_mm = 0  # steady descent: where it began, and its last barometric
         self._steady_ms = -1  # reading that moved
         self._good_agl_mm = 0
@@ -284,6 +275,8 @@ class FlightComputer:
         self.pyro_main = False
         self.pyro_backup_drogue = False
         self.pyro_backup_main = False
+        self._det_phase = -1  # the phase the detector is configured for (see step)
+        self._pulses = 0  # pulses on (_pyro ends them; 0: nothing to do)
         self._drogue_off_ms = 0
         self._main_off_ms = 0
         self._backup_drogue_off_ms = 0
@@ -295,8 +288,10 @@ class FlightComputer:
         self.baro_agl_mm = 0  # last fresh barometric reading above the pad (unfiltered)
         self.vel_mmps = 0
         self.settle_until_ms = 0  # after a resume: no apogee decision before this
-        self._resume_pending = False
         self._gap_us = 0  # after a resume: the time the reset cost, predicted across
+        # room in the attribute tables of the objects each sample uses (MicroPython's speed)
+        for obj in (self, config, self.det, self.kf, self.health, self.arb, self.pad):
+            make_room(obj)
 
     @property
     def ground_fixed(self):
@@ -311,7 +306,12 @@ class FlightComputer:
         return self.health.accel_clipped
 
     def step(self, dt_us, alt_mm, accel_mmps2, have):
-        """Process one sample; see the module docstring for units and outputs."""
+        """Process one sample; see the module docstring for units and outputs.
+
+        The per-sample work is done by module-level functions taking the flight computer, and an
+        attribute used more than once is read into a local: on MicroPython a method call on this
+        object costs twice a function call, an attribute load three local loads (docs/BENCHMARKS.md,
+        "Per-sample cost")."""
         cfg = self.cfg
         self.events = 0
         if self._gap_us:
@@ -319,6 +319,7 @@ class FlightComputer:
             self._gap_us = 0
         health = self.health
         have = health.judge(alt_mm, accel_mmps2, have)
+        now_ms = self.now_ms
         if not self.started:
             self.started = True
             self.det.start(self.pad.start(alt_mm, have), 0)
@@ -326,76 +327,80 @@ class FlightComputer:
             dt_us = 0
         else:
             total = self._us_rem + dt_us
-            self.now_ms += total // 1000
+            now_ms += total // 1000
+            self.now_ms = now_ms
             self._us_rem = total % 1000
+        dt_ms = dt_us // 1000
         state = self.state
-        have = health.watch(self.now_ms, alt_mm, accel_mmps2, have, self.launched and state <= DROGUE)
-        health.age(dt_us // 1000, have)
+        have = health.watch(now_ms, alt_mm, accel_mmps2, have, self.launched and state <= DROGUE)
+        health.age(dt_ms, have)
         if health.changed:
             self.events |= EV_HEALTH
         clipped = health.clipped
         measured_acc = have & HAVE_ACCEL  # a usable reading, before the phase's own choice
+        accel_read = measured_acc or clipped  # (a clipped reading: alive, at full scale)
         if clipped:
             self.errors |= ERR_ACCEL_CLIPPED
         # the accelerometer's own interval: the time since its previous reading (0: none now)
         accel_since_us = self._accel_age_us + dt_us
         if accel_since_us > _ACCEL_AGE_LIMIT_US:
             accel_since_us = _ACCEL_AGE_LIMIT_US
-        if measured_acc or clipped:
+        if accel_read:
             self._accel_age_us = 0
             # the boost timer's: at most _ACCEL_HOLD_US; its period the shorter of the last two
             accel_interval_us = accel_since_us if accel_since_us < _ACCEL_HOLD_US else _ACCEL_HOLD_US
-            accel_period_us = self._accel_interval_us if self._accel_interval_us < accel_interval_us \
-                else accel_interval_us
+            accel_period_us = self._accel_interval_us
+            if accel_period_us > accel_interval_us:
+                accel_period_us = accel_interval_us
             self._accel_interval_us = accel_interval_us
         else:
             self._accel_age_us = accel_since_us
             accel_since_us = accel_interval_us = accel_period_us = 0
+        kf = self.kf
         if state == PAD:
             pad = self.pad
-            pad.update(self.now_ms, alt_mm, accel_mmps2, have, self.kf)
+            pad.update(now_ms, alt_mm, accel_mmps2, have, kf)
             self.errors = (self.errors & ~PAD_ERRORS) | pad.errors
             self.ground_alt_mm = pad.ground_alt_mm
             self.one_g_mmps2 = pad.one_g_mmps2
         acc_kin = accel_mmps2 - self.one_g_mmps2
-        have = self._arbitrate(alt_mm, accel_mmps2, acc_kin, have, clipped)
-        kf = self.kf
-        self._set_baro_weight()
-        if (self._resume_pending or self._reanchor) and have & HAVE_BARO:
+        have = _arbitrate(self, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped)
+        mode = self.mode
+        prior_vel_mmps = kf.vel_q4 >> 4
+        _set_baro_weight(kf, cfg, state, mode, prior_vel_mmps)
+        if have & HAVE_BARO and self._reanchor:
             # after a reset, or the barometer back from an exclusion: its altitude, not its path
-            self._resume_pending = self._reanchor = False
+            self._reanchor = False
             kf.set_altitude(alt_mm)
-        resuming = self.now_ms < self.settle_until_ms
-        # gates from 0.5 s after burnout: the motor's tail-off is a real, fast change
-        settling = resuming or self.now_ms - self.burnout_ms < _GATE_START_MS
+        resuming = now_ms < self.settle_until_ms
         coasting = state == FAST or state == COAST
         if coasting and acc_kin > -G_MMPS2 // 2:
             # after burnout drag only decelerates: an axial specific force above +0.5 g is the
             # motor's tail-off, an ejection charge, a shock or a tumbling rocket (no staging)
             have &= HAVE_BARO
-        if state >= FAST and not settling:
-            self.det.gate_alt_mm = GATE_ALT_MM
-            self.det.gate_acc_mmps2 = GATE_ACC_MMPS2
-        elif state == BOOST and not resuming:
-            self.det.gate_alt_mm = cfg.boost_gate_mm  # a wide gate from the first sample of boost
-            self.det.gate_acc_mmps2 = 0
-        else:
-            self.det.gate_alt_mm = 0
-            self.det.gate_acc_mmps2 = 0
-        self._set_model(state)
-        # coasting: gravity and drag, never an upward push
-        self.det.acc_max_q4 = COAST_ACC_MAX_Q4 if coasting else RATE_LIMIT_Q4
+        # the detector's configuration for the phase, set when the phase changes: the state, a
+        # resumed filter settling, the first 0.5 s after burnout (the motor's tail-off is a real,
+        # fast change: no gates yet)
+        phase = state
         if resuming:
-            self.det.model = MODEL_PLAIN  # after a reset the saved velocity may be old: re-learn
-        baro_alone = state >= DROGUE or resuming
-        if baro_alone:
+            phase += 8
+        elif state >= FAST and now_ms - self.burnout_ms < _GATE_START_MS:
+            phase += 16
+        det = self.det
+        if phase != self._det_phase:
+            self._det_phase = phase
+            _configure_detector(det, cfg, state, resuming, phase != state)
+        if state >= DROGUE or resuming:
             # under a parachute the orientation is unknown; a resumed filter follows the
             # barometer alone (see restore_state)
             have &= HAVE_BARO
-        self.det.accel_off = baro_alone
+        # after a reset the plain model: the saved velocity may be old, the filter re-learns it
+        if state == COAST and not resuming:
+            det.model = _coast_model(mode, prior_vel_mmps)
+        else:
+            det.model = MODEL_PLAIN
         if dt_us:
-            enabled = self._apogee_enabled()
-            accel_only = self.mode == MODE_ACCEL
+            enabled = state == COAST and _apogee_enabled(self, cfg, now_ms)
             if cfg.baro_lag_ms and have & HAVE_BARO:
                 # the reading shows the altitude of baro_lag_ms ago: h(t) ~ h(t - lag) + v lag
                 # (velocity in cm/s so that the product stays in 31 bits)
@@ -403,248 +408,44 @@ class FlightComputer:
             # the filter decides only while the barometer is in use: with no usable sensor
             # (mode 0: a barometer-only board whose barometer froze or died) its velocity is a
             # prediction that no reading supports, and only the backup timer may fire
-            apogee = self.det.step(dt_us, alt_mm, acc_kin, have, enabled and self.mode & MODE_BARO)
-            if accel_only and enabled:
-                apogee = self._accel_only_apogee()
+            apogee = det.step(dt_us, alt_mm, acc_kin, have, enabled and mode & MODE_BARO)
+            if mode == MODE_ACCEL and enabled:
+                apogee = _accel_only_apogee(self)
         else:
             apogee = False
-        self.agl_mm = (kf.alt_q4 >> 4) - self.ground_alt_mm
-        self.vel_mmps = kf.vel_q4 >> 4
+        ground_mm = self.ground_alt_mm
+        agl_mm = (kf.alt_q4 >> 4) - ground_mm
+        vel_mmps = kf.vel_q4 >> 4
+        self.agl_mm = agl_mm
+        self.vel_mmps = vel_mmps
         if have & HAVE_BARO:
-            self.baro_agl_mm = alt_mm - self.ground_alt_mm
+            self.baro_agl_mm = alt_mm - ground_mm
             if (state == DROGUE and health.baro_moved
                     and -_STEADY_ACC_MMPS2 < kf.acc_q4 >> 4 < _STEADY_ACC_MMPS2
-                    and -_STEADY_RATE_MMPS < self.arb.baro_rate_mmps - self.vel_mmps < _STEADY_RATE_MMPS):
+                    and -_STEADY_RATE_MMPS < self.arb.baro_rate_mmps - vel_mmps < _STEADY_RATE_MMPS):
                 if self._steady_ms < 0:
-                    self._steady_ms = self.now_ms  # the steady descent began
-                    self._steady_agl_mm = self.agl_mm
-                self._good_agl_mm = self.agl_mm
-                self._good_ms = self.now_ms
-        self._update_averages(dt_us, alt_mm, have)
-        self._update_boost(accel_interval_us, accel_period_us, acc_kin, have, clipped)
-        if measured_acc or clipped:
-            self._integrate_accel(accel_since_us // 1000, acc_kin, clipped)
-        if measured_acc:
-            self.acc_meas_avg = _ema(self.acc_meas_avg, acc_kin, accel_since_us // 1000, _DECEL_TAU_MS)
-            if state != PAD and self.acc_meas_avg <= -cfg.coast_decel_mmps2:
-                self.coast_measured = True
-        self._transition(apogee)
-        self._check_proof(dt_us // 1000)
-        self._pyro()
-
-    def _set_baro_weight(self):
-        """AltOS-style Mach de-weighting: full weight up to the lockout speed, then a ramp down to
-        mach_baro_weight_pct at 1.32 x lockout; ascent only, and only while the accelerometer is
-        in use: de-weighting the only sensor would leave the filter coasting on an acceleration
-        no reading corrects (an accelerometer lost in boost kept the motor's thrust in it)."""
-        cfg = self.cfg
-        kf = self.kf
-        if self.state >= DROGUE or not self.mode & MODE_ACCEL:
-            kf.baro_weight_256 = 256
-            return
-        over = (kf.vel_q4 >> 4) - cfg.mach_lockout_mmps
-        if over <= 0:
-            kf.baro_weight_256 = 256
-            return
-        span = cfg.mach_lockout_mmps * 32 // 100
-        drop = 256 - cfg.mach_baro_weight_256
-        if over >= span:
-            kf.baro_weight_256 = cfg.mach_baro_weight_256
-        else:
-            kf.baro_weight_256 = 256 - drop * (over >> 4) // (span >> 4)
-
-    def _set_model(self, state):
-        """Coast estimates the accelerometer's bias; below LATE_COAST speed the acceleration is
-        taken as -g (tools/gen_gains.py explains the physics and the numbers). Fast (above the
-        Mach lockout) keeps the plain model: a bias learnt from a barometer that lies through
-        Mach would carry the lie into the velocity.
-
-        A barometer excluded by the arbitration (``_arbitrate``) leaves the bias model to
-        correct with the accelerometer alone; the late-coast model needs the barometer."""
-        if state == COAST:
-            vel = self.kf.vel_q4 >> 4
-            if -_LATE_COAST_MMPS < vel < _LATE_COAST_MMPS and self.mode & MODE_BARO:
-                self.det.model = MODEL_GRAVITY
-            else:
-                self.det.model = MODEL_BIAS
-        else:
-            self.det.model = MODEL_PLAIN
-
-    def _apogee_enabled(self):
-        cfg = self.cfg
-        return (self.state == COAST and self.flight_proven and self.drogue_fired_ms < 0
-                and self.apogee_ms < 0 and self.now_ms >= self.settle_until_ms
-                and self.now_ms - self.launch_ms >= cfg.apogee_lockout_ms
-                and self.agl_mm >= cfg.proof_climb_mm
-                and not (self.arb.valid and self.arb.lower_mmps() > cfg.apogee_guard_mmps)
-                and not (self._dead_reckoning and self.arb.valid
-                         and self.arb.dead_reckoned_mmps(self.now_ms) > cfg.dead_reckoning_guard_mmps)
-                and cfg.coast_decel_mmps2 << 4 <= -self.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
-                and (self.coast_measured or not self.health.accel_ok)
-                and (self.mode & MODE_ACCEL or self.resid_sq_avg_q4 < cfg.baro_track_sq_q4))
-
-    def _update_averages(self, dt_us, alt_mm, have):
-        dt_ms = dt_us // 1000
-        self.acc_avg_q4 = _ema(self.acc_avg_q4, self.kf.acc_q4, dt_ms, _DECEL_TAU_MS)
-        if have & HAVE_BARO:
-            resid_m = (alt_mm - (self.kf.alt_q4 >> 4)) // 1000
-            if resid_m < 0:
-                resid_m = -resid_m
-            if resid_m > _RESID_CAP_M:
-                resid_m = _RESID_CAP_M
-            self.resid_sq_avg_q4 = _ema(self.resid_sq_avg_q4, resid_m * resid_m << 4, dt_ms, _RESID_TAU_MS)
-
-    def _update_boost(self, accel_interval_us, accel_period_us, acc_kin, have, clipped):
-        """Boost time: a boosting accelerometer reading after a boosting one adds the time between
-        them, the first of a run one accelerometer period (a long silence before it is not known
-        to be boost); a sample without an accelerometer reading leaves it as it is."""
-        if self.state > BOOST or not (have & HAVE_ACCEL or clipped):
-            return
-        if acc_kin > self.cfg.launch_accel_mmps2 or clipped:
-            self.boost_ms += (accel_interval_us if self.boost_ms else accel_period_us) // 1000
-            if self.boost_ms > self.boost_max_ms:
-                self.boost_max_ms = self.boost_ms
-        else:
-            self.boost_ms = 0
-
-    def _integrate_accel(self, dt_ms, acc_kin, clipped):
-        """The accelerometer's own account of the boost, until proof: speed and height integrated
-        from the first sample of a push on the pad (reset while the pad is quiet), signed."""
-        if self.flight_proven:
-            return
-        if self.state == PAD and acc_kin <= _PUSH_MMPS2:
-            self.acc_dv_mmps = self.acc_dv_max_mmps = self.acc_h_mm = 0
-            self.acc_clipped = False
-            return
-        if clipped:
-            self.acc_clipped = True
-        if dt_ms > 1000:
-            dt_ms = 1000
-        if acc_kin > _INT_LIMIT:
-            acc_kin = _INT_LIMIT
-        elif acc_kin < -_INT_LIMIT:
-            acc_kin = -_INT_LIMIT
-        dv = self.acc_dv_mmps + acc_kin * dt_ms // 1000
-        if dv > _INT_LIMIT:
-            dv = _INT_LIMIT
-        elif dv < -_INT_LIMIT:
-            dv = -_INT_LIMIT
-        self.acc_dv_mmps = dv
-        if dv > self.acc_dv_max_mmps:
-            self.acc_dv_max_mmps = dv
-        h = self.acc_h_mm + dv * dt_ms // 1000
-        if -_INT_LIMIT << 8 < h < _INT_LIMIT << 8:
-            self.acc_h_mm = h
-
-    def _check_proof(self, dt_ms):
-        """flight_proven, once true, stays true (every firing path requires it).
-
-        Both sensors: the barometer's own reading holds proof_climb_m for a second, and the
-        accelerometer's account of the boost agrees: its integrated speed reached proof_speed_mps
-        and its integrated height proof_climb_m (a shove or a knock on the rail gives a few m/s; a
-        pressure offset, a gust or a hand on the port moves no accelerometer). Barometer only (by
-        configuration, or the accelerometer lost before proof): proof_baro_climb_m held, above any
-        pad pressure disturbance, at proof_speed_mps. Accelerometer only (or the barometer lost):
-        the filter's climb held, at proof_speed_mps, after a boost of 0.3 s."""
-        if self.agl_mm > self.max_agl_mm:
-            self.max_agl_mm = self.agl_mm
-        if self.vel_mmps > self.max_vel_mmps:
-            self.max_vel_mmps = self.vel_mmps
-        if self.flight_proven or not self.launched:
-            return
-        cfg = self.cfg
-        baro_ok = self.health.baro_ok
-        accel_ok = self.health.accel_ok and self.acc_account
-        if baro_ok:
-            # the barometer's own reading, not the filter (a stuck accelerometer drags it up)
-            climb_mm = self.baro_agl_mm
-            line_mm = cfg.proof_climb_mm if accel_ok else cfg.proof_baro_climb_mm
-        else:
-            climb_mm = self.agl_mm
-            line_mm = cfg.proof_climb_mm
-        agree = True
-        if baro_ok and accel_ok:
-            diff = climb_mm - self.acc_h_mm
-            agree = -_AGREE_MM - (climb_mm >> 2) <= diff and (
-                self.acc_clipped or diff <= _AGREE_MM + (climb_mm >> 2))  # clipped: a lower bound
-        if climb_mm >= line_mm and agree:
-            self.climb_ms += dt_ms
-        elif self.climb_ms > dt_ms:
-            self.climb_ms -= dt_ms  # a noisy reading below the line costs only its own time
-        else:
-            self.climb_ms = 0
-        # a climb that lasts: a pressure transient (ejection, venting, a knock) decays in tenths
-        # of a second, a rocket stays above a few tens of metres for seconds
-        proven = self.climb_ms >= _PROOF_HOLD_MS
-        if baro_ok and accel_ok:
-            proven = proven and self.acc_dv_max_mmps >= cfg.proof_speed_mmps
-        elif baro_ok:
-            proven = proven and self.max_vel_mmps >= cfg.proof_speed_mmps
-        elif accel_ok:
-            proven = (proven and self.max_vel_mmps >= cfg.proof_speed_mmps
-                      and self.boost_max_ms >= _ACCEL_ONLY_BOOST_MS)
-        else:
-            proven = False
-        self.flight_proven = proven
-
-    def _transition(self, apogee):
-        """One branch per state, each opening with its rule (the table in the module docstring)."""
-        cfg = self.cfg
-        state = self.state
-        if state == PAD:
-            # launch: the boost sustained (barometer-only: the proof climb at the proof speed);
-            # refused while the board is not upright or the barometer is erratic
-            if self.errors & (ERR_ORIENTATION | ERR_BARO_ERRATIC):
-                return
-            # or the height and speed (low thrust-to-weight, barometer-only boards)
-            boost = cfg.has_accel and self.boost_ms >= cfg.launch_accel_ms
-            # (with an accelerometer, while it pushes: its integral reached launch_speed_mps)
-            height = (self.agl_mm >= cfg.launch_height_mm and self.vel_mmps >= cfg.launch_speed_mmps
-                      and (not self.health.accel_ok or self.acc_dv_mmps >= cfg.launch_speed_mmps))
-            if boost or height:
-                self._launch(not boost)
-        elif state <= COAST:
-            # ascent: back to the pad without proof (_false_launch); burnout; the Mach lockout;
-            # then apogee and the drogue
-            if self._false_launch():
-                return
-            fast = (self.kf.vel_q4 >> 4 > cfg.mach_lockout_mmps
-                    or self.now_ms - self.launch_ms < cfg.mach_lockout_ms)
-            if state == BOOST:
-                # burnout: the filtered acceleration turns negative, or the boost timeout
-                if self.kf.acc_q4 < -2500 * 16 or self.now_ms - self.launch_ms > cfg.max_boost_ms:
-                    self.burnout_ms = self.now_ms
-                    self.events |= EV_BURNOUT
-                    self.state = FAST if fast else COAST
-            elif state == FAST:
-                if not fast:
-                    self.state = COAST
-            elif fast:
-                self.state = FAST
-            self._drogue_rule(apogee)
-        elif state == DROGUE:
-            # main: proven, after the guard time; at or below the main altitude descending when the
-            # flight rose main_margin_m above it; without a usable barometer _main_due_without_baro
-            since_ms = self.now_ms - self.drogue_fired_ms
-            if not cfg.main_deploy_mm:
-                main = False  # main_deploy_m 0: no main, a single deployment
-            elif not self.flight_proven or since_ms < cfg.main_guard_ms:
-                main = False
-            elif not self.mode & MODE_BARO:
-                main = self._main_due_without_baro(since_ms)
-            elif self.vel_mmps >= 0:
-                main = False  # still climbing (a drogue on the backup timer): its maximum is to come
-            elif self.max_agl_mm >= cfg.main_deploy_mm + cfg.main_margin_mm:
-                main = self.agl_mm <= cfg.main_deploy_mm
-            else:
-                main = True  # it never rose clear of the main altitude: do not land on the drogue
-            if main:
-                self._fire_main()
-            self._backup_rule()
-            self._landing_rule()
-        elif state == MAIN:
-            self._backup_rule()
-            self._landing_rule()
+                    self._steady_ms = now_ms  # the steady descent began
+                    self._steady_agl_mm = agl_mm
+                self._good_agl_mm = agl_mm
+                self._good_ms = now_ms
+        if state < DROGUE:
+            # the averages of the ascent's decisions (the apogee gate, a false launch at rest)
+            accel_ms = accel_since_us // 1000 if measured_acc else -1
+            _update_averages(self, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms)
+        if state <= BOOST:
+            _update_boost(self, cfg, accel_interval_us, accel_period_us, acc_kin, have, clipped)
+        if accel_read and not self.flight_proven:
+            _integrate_accel(self, state, accel_since_us // 1000, acc_kin, clipped)
+        _transition(self, cfg, state, apogee)
+        agl_mm = self.agl_mm  # (a launch re-bases it)
+        if agl_mm > self.max_agl_mm:
+            self.max_agl_mm = agl_mm
+        if vel_mmps > self.max_vel_mmps:
+            self.max_vel_mmps = vel_mmps
+        if self.launched and not self.flight_proven:
+            _check_proof(self, cfg, dt_ms)
+        if self._pulses:
+            _pyro(self, now_ms)
 
     def _launch(self, by_height):
         """Leave the pad. The ground is the reference from the samples ending at least 0.2 s
@@ -661,56 +462,11 @@ class FlightComputer:
         self.ground_alt_mm = ground
         self.agl_mm = (self.kf.alt_q4 >> 4) - ground
 
-    def _drogue_rule(self, apogee):
-        """Ascent: record apogee; fire the drogue (proven) when its delay is over, or on the
-        backup timer."""
-        cfg = self.cfg
-        if apogee:
-            self.apogee_ms = self.now_ms
-            self.events |= EV_APOGEE
-            self.drogue_due_ms = self.now_ms + cfg.apogee_delay_ms
-        if self.flight_proven and self.drogue_fired_ms < 0:
-            if self.drogue_due_ms >= 0 and self.now_ms >= self.drogue_due_ms:
-                self._fire_drogue()
-            elif cfg.backup_drogue_ms and self.now_ms - self.launch_ms >= cfg.backup_drogue_ms:
-                self._fire_drogue()
-
-    def _false_launch(self):
-        """A launch that has not proven a flight within _FALSE_LAUNCH_MS while the rocket is near
-        the pad (a push on the rail, a drop) or at rest (a pressure offset that stays: the av-bay
-        sealed) goes back to pad mode, with its calibration. An unproven flight fires nothing, so
-        going back to the pad in the air costs nothing."""
-        cfg = self.cfg
-        if self.flight_proven or self.now_ms - self.launch_ms < _FALSE_LAUNCH_MS:
-            return False
-        baro_ok = self.health.baro_ok
-        if baro_ok:
-            near = -cfg.proof_climb_mm < self.baro_agl_mm < cfg.proof_climb_mm
-        else:
-            near = -cfg.proof_speed_mmps < self.vel_mmps < cfg.proof_speed_mmps
-        # at rest: no climb (measured: the barometer's rate, else the accelerometer-only filter's;
-        # the coast clamp keeps the filter from resting), and (with an accelerometer) standing at
-        # 1 g, not coasting at 0 g
-        rate_mmps = self.arb.baro_rate_mmps if baro_ok else self.vel_mmps
-        at_rest = -cfg.launch_speed_mmps < rate_mmps < cfg.launch_speed_mmps and (
-            not self.health.accel_ok or -_PUSH_MMPS2 < self.acc_meas_avg < _PUSH_MMPS2)
-        if not (near or at_rest):
-            return False
-        self.state = PAD
-        self.launched = False
-        self.boost_ms = self.boost_max_ms = self.climb_ms = 0
-        self.max_agl_mm = self.max_vel_mmps = 0
-        self.acc_dv_mmps = self.acc_dv_max_mmps = self.acc_h_mm = 0
-        self.acc_clipped = False
-        self.coast_measured = False
-        self.errors |= ERR_FALSE_LAUNCH
-        self.kf.reset(self.ground_alt_mm + self.baro_agl_mm if baro_ok else self.kf.alt_q4 >> 4)
-        return True
-
     def _fire_drogue(self):
         self.drogue_fired_ms = self.now_ms
         self._drogue_off_ms = self.now_ms + self.cfg.pulse_ms
         self.pyro_drogue = True
+        self._pulses += 1
         self.events |= EV_DROGUE
         self.state = DROGUE
         self._land_start_ms = self.now_ms
@@ -720,154 +476,23 @@ class FlightComputer:
         self.main_fired_ms = self.now_ms
         self._main_off_ms = self.now_ms + self.cfg.pulse_ms
         self.pyro_main = True
+        self._pulses += 1
         self.events |= EV_MAIN
         self.state = MAIN
-
-    def _backup_rule(self):
-        """The backup channels (drogue and main states: never on the pad, in the ascent or landed),
-        each proven, at most once, after its primary fired: the backup drogue
-        ``backup_drogue_delay_s`` after the drogue; the backup main ``backup_main_delay_s`` after
-        the main at the earliest, then at or below ``backup_main_m`` (the main fired descending;
-        without a usable barometer: at once)."""
-        cfg = self.cfg
-        if (cfg.backup_drogue_delay_ms and self.backup_drogue_fired_ms < 0 and self.flight_proven
-                and self.drogue_fired_ms >= 0
-                and self.now_ms - self.drogue_fired_ms >= cfg.backup_drogue_delay_ms):
-            self._fire_backup_drogue()
-        if (cfg.backup_main_mm and self.backup_main_fired_ms < 0 and self.flight_proven
-                and self.main_fired_ms >= 0
-                and self.now_ms - self.main_fired_ms >= cfg.backup_main_delay_ms
-                and (not self.mode & MODE_BARO or self.agl_mm <= cfg.backup_main_mm)):
-            self._fire_backup_main()
 
     def _fire_backup_drogue(self):
         self.backup_drogue_fired_ms = self.now_ms
         self._backup_drogue_off_ms = self.now_ms + self.cfg.pulse_ms
         self.pyro_backup_drogue = True
+        self._pulses += 1
         self.events |= EV_BACKUP_DROGUE
 
     def _fire_backup_main(self):
         self.backup_main_fired_ms = self.now_ms
         self._backup_main_off_ms = self.now_ms + self.cfg.pulse_ms
         self.pyro_backup_main = True
+        self._pulses += 1
         self.events |= EV_BACKUP_MAIN
-
-    def _landing_rule(self):
-        """Landed: in MAIN (or in DROGUE with no main), the altitude stays within ``landed_alt_m``
-        over a window."""
-        cfg = self.cfg
-        agl = self.agl_mm
-        if agl < self._land_min_mm:
-            self._land_min_mm = agl
-        if agl > self._land_max_mm:
-            self._land_max_mm = agl
-        if self.now_ms - self._land_start_ms >= cfg.landed_window_ms:
-            # landed under the main, or under the only parachute when there is no main
-            if ((self.state == MAIN or not cfg.main_deploy_mm)
-                    and self._land_max_mm - self._land_min_mm <= cfg.landed_alt_mm):
-                self.state = LANDED
-                self.events |= EV_LANDED
-            self._land_start_ms = self.now_ms
-            self._land_min_mm = self._land_max_mm = agl
-
-    def _pyro(self):
-        if self.pyro_drogue and self.now_ms >= self._drogue_off_ms:
-            self.pyro_drogue = False
-        if self.pyro_main and self.now_ms >= self._main_off_ms:
-            self.pyro_main = False
-        if self.pyro_backup_drogue and self.now_ms >= self._backup_drogue_off_ms:
-            self.pyro_backup_drogue = False
-        if self.pyro_backup_main and self.now_ms >= self._backup_main_off_ms:
-            self.pyro_backup_main = False
-
-    # Sensor arbitration and degraded modes (docs/DESIGN.md, "Sensor arbitration").
-
-    def _arbitrate(self, alt_mm, accel_mmps2, acc_kin, have, clipped):
-        """The decision mode from each sensor's health; the accelerometer's velocity bounds from
-        launch; in coast, the barometer left out while it disagrees with them. Returns ``have``
-        without an excluded barometer."""
-        cfg = self.cfg
-        arb = self.arb
-        flags = self.health.flags
-        # the track's time: since the accelerometer's previous reading, or since the part of a
-        # silence beyond _ACCEL_HOLD_US was accounted as missing (each reading stands for its own
-        # interval, so sensors on separate rows integrate as a row with both)
-        dt_ms = self.now_ms - self._arb_ms
-        state = self.state
-        coasting = state == FAST or state == COAST
-        if (state == PAD and (arb.margin_mmps or not arb.valid) and cfg.has_accel
-                and not (acc_kin > cfg.launch_accel_mmps2 or clipped)):
-            arb.start(0)  # at rest: the track starts again at the first boost reading
-        if flags & HEALTH_ACCEL_BAD and arb.valid:
-            arb.stop()  # its integral no longer bounds anything, for the rest of the flight
-        if not (arb.valid and state < DROGUE):  # the track serves the ascent's decisions
-            self._arb_ms = self.now_ms
-        elif have & HAVE_ACCEL or clipped:
-            self._arb_ms = self.now_ms
-            if coasting and acc_kin > -G_MMPS2 // 2 and not clipped:
-                arb.integrate_missing(dt_ms)  # not drag: a shock or an ejection (see step)
-            else:
-                arb.integrate(dt_ms, acc_kin, accel_mmps2, clipped)
-        elif dt_ms * 1000 > _ACCEL_HOLD_US:
-            self._arb_ms = self.now_ms
-            arb.integrate_missing(dt_ms)  # no usable reading for that long: unknown by 1 g x dt
-        if cfg.has_baro:
-            arb.add_baro(self.now_ms, alt_mm, have & HAVE_BARO, self.kf.vel_q4 >> 4, self.kf.bias_q4 >> 4)
-        mode = 0
-        if cfg.has_baro and not flags & HEALTH_BARO_BAD:
-            mode = MODE_BARO
-        if cfg.has_accel and not flags & HEALTH_ACCEL_BAD and (arb.valid or not self.launched):
-            mode |= MODE_ACCEL
-        self.baro_excluded = coasting and mode == MODE_BOTH and not arb.baro_consistent
-        if self.baro_excluded:
-            mode = MODE_ACCEL
-        if mode & MODE_BARO and state == COAST and self._baro_coast_ms < _ANCHORED_MS:
-            self._baro_coast_ms += dt_ms
-        if mode != self.mode:
-            if self.mode & MODE_BARO and not mode & MODE_BARO:
-                arb.set_anchor()
-                self._filter_anchored = self._baro_coast_ms >= _ANCHORED_MS
-                # the guard of _apogee_enabled: only an anchor whose bias the filter had learnt
-                self._dead_reckoning = self._dead_reckoning or self._filter_anchored
-                self._baro_coast_ms = 0
-            elif mode & MODE_BARO and not self.mode & MODE_BARO:
-                self._reanchor = True
-            self.mode = mode
-            self.events |= EV_MODE
-        if not mode & MODE_BARO:
-            have &= HAVE_ACCEL
-        return have
-
-    def _accel_only_apogee(self):
-        """Accelerometer only (no barometer, or it is lost, frozen or excluded): apogee when the
-        highest vertical velocity its error budget allows is at or below zero: the track's upper
-        bound from launch, or, if the barometer had corrected the filter in coast for
-        _ANCHORED_MS before it was lost, the filter's velocity before the fault was detected plus
-        the track's change and margin since (``Arbitration.set_anchor``). Never early; late by the
-        margin / g. A clipped track bounds nothing from above: then the backup timer."""
-        arb = self.arb
-        if not arb.upper_valid:
-            return False
-        return arb.upper_mmps() <= 0 or (
-            self._filter_anchored and arb.anchored_upper_mmps() <= 0)
-
-    def _main_due_without_baro(self, since_drogue_ms):
-        """Barometer lost or frozen under the drogue (proven, after the guard time): the main fires
-        when the last barometric reading that moved and the steady descent rate then predict the
-        main altitude; without such a descent (no barometer on the board, or none seen)
-        ``main_delay_s`` after the drogue; at ``main_backup_s`` after the drogue at the latest."""
-        cfg = self.cfg
-        if cfg.main_backup_ms and since_drogue_ms >= cfg.main_backup_ms:
-            return True
-        # the mean rate of the steady descent seen (decimetres and tenths of a second: the
-        # product below stays within 31 bits for 5 km and 600 s)
-        fell_dm = (self._steady_agl_mm - self._good_agl_mm) // 100
-        took_ds = (self._good_ms - self._steady_ms) // 100
-        if (self._steady_ms < 0 or took_ds < _STEADY_MIN_DS
-                or fell_dm * 10 < took_ds * _DESCENT_MIN_MMPS // 1000):
-            return since_drogue_ms >= cfg.main_delay_ms  # no steady descent seen: no prediction
-        drop_dm = (self._good_agl_mm - cfg.main_deploy_mm) // 100
-        return drop_dm <= 0 or self.now_ms - self._good_ms >= drop_dm * took_ds // fell_dm * 100
 
     # Resume after a reset in flight (docs/DESIGN.md D3, D14). The record is the smallest that
     # allows a safe resume: four words of 30 bits (16 bytes: the RP2040's four free watchdog
@@ -955,10 +580,455 @@ class FlightComputer:
         self._gap_us = gap_ms * 1000  # the next step predicts across the reset
         self.settle_until_ms = self.now_ms + gap_ms + _RESUME_SETTLE_MS
         self.acc_account = False  # proof, if still owed, from one sensor alone
-        self._resume_pending = True
+        self._reanchor = True  # the barometer's altitude, not the saved one
         self._land_start_ms = self.now_ms
         self._land_min_mm = self._land_max_mm = self.max_agl_mm
         return True
+
+
+
+# The per-sample work of FlightComputer.step: module-level functions taking the flight computer
+# (see step).
+
+
+def _set_baro_weight(kf, cfg, state, mode, vel_mmps):
+    """AltOS-style Mach de-weighting: full weight up to the lockout speed, then a ramp down to
+    mach_baro_weight_pct at 1.32 x lockout; ascent only, and only while the accelerometer is
+    in use: de-weighting the only sensor would leave the filter coasting on an acceleration
+    no reading corrects (an accelerometer lost in boost kept the motor's thrust in it)."""
+    over = vel_mmps - cfg.mach_lockout_mmps
+    if state >= DROGUE or not mode & MODE_ACCEL or over <= 0:
+        kf.baro_weight_256 = 256
+        return
+    span = cfg.mach_lockout_mmps * 32 // 100
+    if over >= span:
+        kf.baro_weight_256 = cfg.mach_baro_weight_256
+    else:
+        kf.baro_weight_256 = 256 - (256 - cfg.mach_baro_weight_256) * (over >> 4) // (span >> 4)
+
+
+def _configure_detector(det, cfg, state, resuming, settling):
+    """The detector's gates, acceleration ceiling and use of the accelerometer for the phase
+    (``settling``: resuming, or within 0.5 s of burnout)."""
+    if state >= FAST and not settling:
+        det.gate_alt_mm = GATE_ALT_MM
+        det.gate_acc_mmps2 = GATE_ACC_MMPS2
+    elif state == BOOST and not resuming:
+        det.gate_alt_mm = cfg.boost_gate_mm  # a wide gate from the first sample of boost
+        det.gate_acc_mmps2 = 0
+    else:
+        det.gate_alt_mm = 0
+        det.gate_acc_mmps2 = 0
+    # coasting: gravity and drag, never an upward push
+    det.acc_max_q4 = COAST_ACC_MAX_Q4 if state == FAST or state == COAST else RATE_LIMIT_Q4
+    det.accel_off = state >= DROGUE or resuming  # (step uses the barometer alone then)
+
+
+def _coast_model(mode, vel_mmps):
+    """The correction model in coast: the accelerometer's bias estimated; below _LATE_COAST_MMPS
+    the acceleration taken as -g (tools/gen_gains.py explains the physics and the numbers). Fast
+    (above the Mach lockout) keeps the plain model: a bias learnt from a barometer that lies
+    through Mach would carry the lie into the velocity.
+
+    A barometer excluded by the arbitration (``_arbitrate``) leaves the bias model to correct
+    with the accelerometer alone; the late-coast model needs the barometer."""
+    if -_LATE_COAST_MMPS < vel_mmps < _LATE_COAST_MMPS and mode & MODE_BARO:
+        return MODEL_GRAVITY
+    return MODEL_BIAS
+
+
+def _apogee_enabled(fc, cfg, now_ms):
+    """The filter's apogee is allowed (in coast: the caller's test)."""
+    arb = fc.arb
+    return (fc.flight_proven and fc.drogue_fired_ms < 0
+            and fc.apogee_ms < 0 and now_ms >= fc.settle_until_ms
+            and now_ms - fc.launch_ms >= cfg.apogee_lockout_ms
+            and fc.agl_mm >= cfg.proof_climb_mm
+            and not (arb.valid and arb.lower_mmps() > cfg.apogee_guard_mmps)
+            and not (fc._dead_reckoning and arb.valid
+                     and arb.dead_reckoned_mmps(now_ms) > cfg.dead_reckoning_guard_mmps)
+            and cfg.coast_decel_mmps2 << 4 <= -fc.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
+            and (fc.coast_measured or not fc.health.accel_ok)
+            and (fc.mode & MODE_ACCEL or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4))
+
+
+def _update_averages(fc, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms):
+    """The ascent's averages: the filter's acceleration and the squared distance between the
+    barometer and the filter (the apogee gate), and the measured acceleration (a usable reading,
+    held ``accel_ms``; -1: none) with the coast it shows.
+
+    Each is an exponential average with its time constant tau, in 31 bits: avg += (x - avg) dt /
+    tau, dt at most tau, the step x - avg clamped to 2**20 (written out: a helper's three calls
+    cost a quarter of this function on MicroPython)."""
+    avg = fc.acc_avg_q4
+    step = kf.acc_q4 - avg
+    if step > _EMA_STEP_LIMIT:
+        step = _EMA_STEP_LIMIT
+    elif step < -_EMA_STEP_LIMIT:
+        step = -_EMA_STEP_LIMIT
+    fc.acc_avg_q4 = avg + step * (dt_ms if dt_ms < _DECEL_TAU_MS else _DECEL_TAU_MS) // _DECEL_TAU_MS
+    if have & HAVE_BARO:
+        resid_m = (alt_mm - (kf.alt_q4 >> 4)) // 1000
+        if resid_m < 0:
+            resid_m = -resid_m
+        if resid_m > _RESID_CAP_M:
+            resid_m = _RESID_CAP_M
+        # (no clamp: the squares lie within 0..2**18, and so does their average)
+        avg = fc.resid_sq_avg_q4
+        fc.resid_sq_avg_q4 = avg + ((resid_m * resid_m << 4) - avg) * (
+            dt_ms if dt_ms < _RESID_TAU_MS else _RESID_TAU_MS) // _RESID_TAU_MS
+    if accel_ms >= 0:
+        avg = fc.acc_meas_avg
+        step = acc_kin - avg
+        if step > _EMA_STEP_LIMIT:
+            step = _EMA_STEP_LIMIT
+        elif step < -_EMA_STEP_LIMIT:
+            step = -_EMA_STEP_LIMIT
+        avg += step * (accel_ms if accel_ms < _DECEL_TAU_MS else _DECEL_TAU_MS) // _DECEL_TAU_MS
+        fc.acc_meas_avg = avg
+        if state != PAD and avg <= -cfg.coast_decel_mmps2:
+            fc.coast_measured = True
+
+
+def _update_boost(fc, cfg, accel_interval_us, accel_period_us, acc_kin, have, clipped):
+    """Boost time (pad and boost): a boosting accelerometer reading after a boosting one adds the
+    time between them, the first of a run one accelerometer period (a long silence before it is
+    not known to be boost); a sample without an accelerometer reading leaves it as it is."""
+    if not (have & HAVE_ACCEL or clipped):
+        return
+    if acc_kin > cfg.launch_accel_mmps2 or clipped:
+        boost_ms = fc.boost_ms
+        boost_ms += (accel_interval_us if boost_ms else accel_period_us) // 1000
+        fc.boost_ms = boost_ms
+        if boost_ms > fc.boost_max_ms:
+            fc.boost_max_ms = boost_ms
+    else:
+        fc.boost_ms = 0
+
+
+def _integrate_accel(fc, state, dt_ms, acc_kin, clipped):
+    """The accelerometer's own account of the boost, until proof (the caller's test): speed and
+    height integrated from the first sample of a push on the pad (reset while the pad is quiet),
+    signed."""
+    if state == PAD and acc_kin <= _PUSH_MMPS2:
+        fc.acc_dv_mmps = fc.acc_dv_max_mmps = fc.acc_h_mm = 0
+        fc.acc_clipped = False
+        return
+    if clipped:
+        fc.acc_clipped = True
+    if dt_ms > 1000:
+        dt_ms = 1000
+    if acc_kin > _INT_LIMIT:
+        acc_kin = _INT_LIMIT
+    elif acc_kin < -_INT_LIMIT:
+        acc_kin = -_INT_LIMIT
+    dv = fc.acc_dv_mmps + acc_kin * dt_ms // 1000
+    if dv > _INT_LIMIT:
+        dv = _INT_LIMIT
+    elif dv < -_INT_LIMIT:
+        dv = -_INT_LIMIT
+    fc.acc_dv_mmps = dv
+    if dv > fc.acc_dv_max_mmps:
+        fc.acc_dv_max_mmps = dv
+    h = fc.acc_h_mm + dv * dt_ms // 1000
+    if -_INT_LIMIT << 8 < h < _INT_LIMIT << 8:
+        fc.acc_h_mm = h
+
+
+def _check_proof(fc, cfg, dt_ms):
+    """flight_proven, once true, stays true (every firing path requires it); launched and not
+    yet proven (the caller's test).
+
+    Both sensors: the barometer's own reading holds proof_climb_m for a second, and the
+    accelerometer's account of the boost agrees: its integrated speed reached proof_speed_mps
+    and its integrated height proof_climb_m (a shove or a knock on the rail gives a few m/s; a
+    pressure offset, a gust or a hand on the port moves no accelerometer). Barometer only (by
+    configuration, or the accelerometer lost before proof): proof_baro_climb_m held, above any
+    pad pressure disturbance, at proof_speed_mps. Accelerometer only (or the barometer lost):
+    the filter's climb held, at proof_speed_mps, after a boost of 0.3 s."""
+    baro_ok = fc.health.baro_ok
+    accel_ok = fc.health.accel_ok and fc.acc_account
+    if baro_ok:
+        # the barometer's own reading, not the filter (a stuck accelerometer drags it up)
+        climb_mm = fc.baro_agl_mm
+        line_mm = cfg.proof_climb_mm if accel_ok else cfg.proof_baro_climb_mm
+    else:
+        climb_mm = fc.agl_mm
+        line_mm = cfg.proof_climb_mm
+    agree = True
+    if baro_ok and accel_ok:
+        diff = climb_mm - fc.acc_h_mm
+        agree = -_AGREE_MM - (climb_mm >> 2) <= diff and (
+            fc.acc_clipped or diff <= _AGREE_MM + (climb_mm >> 2))  # clipped: a lower bound
+    if climb_mm >= line_mm and agree:
+        fc.climb_ms += dt_ms
+    elif fc.climb_ms > dt_ms:
+        fc.climb_ms -= dt_ms  # a noisy reading below the line costs only its own time
+    else:
+        fc.climb_ms = 0
+    # a climb that lasts: a pressure transient (ejection, venting, a knock) decays in tenths
+    # of a second, a rocket stays above a few tens of metres for seconds
+    proven = fc.climb_ms >= _PROOF_HOLD_MS
+    if baro_ok and accel_ok:
+        proven = proven and fc.acc_dv_max_mmps >= cfg.proof_speed_mmps
+    elif baro_ok:
+        proven = proven and fc.max_vel_mmps >= cfg.proof_speed_mmps
+    elif accel_ok:
+        proven = (proven and fc.max_vel_mmps >= cfg.proof_speed_mmps
+                  and fc.boost_max_ms >= _ACCEL_ONLY_BOOST_MS)
+    else:
+        proven = False
+    fc.flight_proven = proven
+
+
+def _transition(fc, cfg, state, apogee):
+    """One branch per state, each opening with its rule (the table in the module docstring)."""
+    if state == PAD:
+        # launch: the boost sustained (barometer-only: the proof climb at the proof speed);
+        # refused while the board is not upright or the barometer is erratic
+        if fc.errors & (ERR_ORIENTATION | ERR_BARO_ERRATIC):
+            return
+        # or the height and speed (low thrust-to-weight, barometer-only boards)
+        boost = cfg.has_accel and fc.boost_ms >= cfg.launch_accel_ms
+        # (with an accelerometer, while it pushes: its integral reached launch_speed_mps)
+        height = (fc.agl_mm >= cfg.launch_height_mm and fc.vel_mmps >= cfg.launch_speed_mmps
+                  and (not fc.health.accel_ok or fc.acc_dv_mmps >= cfg.launch_speed_mmps))
+        if boost or height:
+            fc._launch(not boost)
+    elif state <= COAST:
+        # ascent: back to the pad without proof (_false_launch); burnout; the Mach lockout;
+        # then apogee and the drogue
+        now_ms = fc.now_ms
+        if not fc.flight_proven and now_ms - fc.launch_ms >= _FALSE_LAUNCH_MS and _false_launch(fc, cfg):
+            return
+        kf = fc.kf
+        fast = (kf.vel_q4 >> 4 > cfg.mach_lockout_mmps
+                or now_ms - fc.launch_ms < cfg.mach_lockout_ms)
+        if state == BOOST:
+            # burnout: the filtered acceleration turns negative, or the boost timeout
+            if kf.acc_q4 < -2500 * 16 or now_ms - fc.launch_ms > cfg.max_boost_ms:
+                fc.burnout_ms = now_ms
+                fc.events |= EV_BURNOUT
+                fc.state = FAST if fast else COAST
+        elif state == FAST:
+            if not fast:
+                fc.state = COAST
+        elif fast:
+            fc.state = FAST
+        _drogue_rule(fc, cfg, now_ms, apogee)
+    elif state == DROGUE:
+        # main: proven, after the guard time; at or below the main altitude descending when the
+        # flight rose main_margin_m above it; without a usable barometer _main_due_without_baro
+        since_ms = fc.now_ms - fc.drogue_fired_ms
+        if not cfg.main_deploy_mm:
+            main = False  # main_deploy_m 0: no main, a single deployment
+        elif not fc.flight_proven or since_ms < cfg.main_guard_ms:
+            main = False
+        elif not fc.mode & MODE_BARO:
+            main = _main_due_without_baro(fc, since_ms)
+        elif fc.vel_mmps >= 0:
+            main = False  # still climbing (a drogue on the backup timer): its maximum is to come
+        elif fc.max_agl_mm >= cfg.main_deploy_mm + cfg.main_margin_mm:
+            main = fc.agl_mm <= cfg.main_deploy_mm
+        else:
+            main = True  # it never rose clear of the main altitude: do not land on the drogue
+        if main:
+            fc._fire_main()
+        _backup_rule(fc, cfg)
+        _landing_rule(fc, cfg)
+    elif state == MAIN:
+        _backup_rule(fc, cfg)
+        _landing_rule(fc, cfg)
+
+
+def _drogue_rule(fc, cfg, now_ms, apogee):
+    """Ascent: record apogee; fire the drogue (proven) when its delay is over, or on the
+    backup timer."""
+    if apogee:
+        fc.apogee_ms = now_ms
+        fc.events |= EV_APOGEE
+        fc.drogue_due_ms = now_ms + cfg.apogee_delay_ms
+    if fc.flight_proven and fc.drogue_fired_ms < 0:
+        if fc.drogue_due_ms >= 0 and now_ms >= fc.drogue_due_ms:
+            fc._fire_drogue()
+        elif cfg.backup_drogue_ms and now_ms - fc.launch_ms >= cfg.backup_drogue_ms:
+            fc._fire_drogue()
+
+
+def _false_launch(fc, cfg):
+    """A launch that has not proven a flight within _FALSE_LAUNCH_MS (the caller's test) while
+    the rocket is near the pad (a push on the rail, a drop) or at rest (a pressure offset that
+    stays: the av-bay sealed) goes back to pad mode, with its calibration. An unproven flight
+    fires nothing, so going back to the pad in the air costs nothing."""
+    baro_ok = fc.health.baro_ok
+    if baro_ok:
+        near = -cfg.proof_climb_mm < fc.baro_agl_mm < cfg.proof_climb_mm
+    else:
+        near = -cfg.proof_speed_mmps < fc.vel_mmps < cfg.proof_speed_mmps
+    # at rest: no climb (measured: the barometer's rate, else the accelerometer-only filter's;
+    # the coast clamp keeps the filter from resting), and (with an accelerometer) standing at
+    # 1 g, not coasting at 0 g
+    rate_mmps = fc.arb.baro_rate_mmps if baro_ok else fc.vel_mmps
+    at_rest = -cfg.launch_speed_mmps < rate_mmps < cfg.launch_speed_mmps and (
+        not fc.health.accel_ok or -_PUSH_MMPS2 < fc.acc_meas_avg < _PUSH_MMPS2)
+    if not (near or at_rest):
+        return False
+    fc.state = PAD
+    fc.launched = False
+    fc.boost_ms = fc.boost_max_ms = fc.climb_ms = 0
+    fc.max_agl_mm = fc.max_vel_mmps = 0
+    fc.acc_dv_mmps = fc.acc_dv_max_mmps = fc.acc_h_mm = 0
+    fc.acc_clipped = False
+    fc.coast_measured = False
+    fc.errors |= ERR_FALSE_LAUNCH
+    fc.kf.reset(fc.ground_alt_mm + fc.baro_agl_mm if baro_ok else fc.kf.alt_q4 >> 4)
+    return True
+
+
+def _backup_rule(fc, cfg):
+    """The backup channels (drogue and main states: never on the pad, in the ascent or landed),
+    each proven, at most once, after its primary fired: the backup drogue
+    ``backup_drogue_delay_s`` after the drogue; the backup main ``backup_main_delay_s`` after
+    the main at the earliest, then at or below ``backup_main_m`` (the main fired descending;
+    without a usable barometer: at once)."""
+    if (cfg.backup_drogue_delay_ms and fc.backup_drogue_fired_ms < 0 and fc.flight_proven
+            and fc.drogue_fired_ms >= 0
+            and fc.now_ms - fc.drogue_fired_ms >= cfg.backup_drogue_delay_ms):
+        fc._fire_backup_drogue()
+    if (cfg.backup_main_mm and fc.backup_main_fired_ms < 0 and fc.flight_proven
+            and fc.main_fired_ms >= 0
+            and fc.now_ms - fc.main_fired_ms >= cfg.backup_main_delay_ms
+            and (not fc.mode & MODE_BARO or fc.agl_mm <= cfg.backup_main_mm)):
+        fc._fire_backup_main()
+
+
+def _landing_rule(fc, cfg):
+    """Landed: in MAIN (or in DROGUE with no main), the altitude stays within ``landed_alt_m``
+    over a window."""
+    agl = fc.agl_mm
+    if agl < fc._land_min_mm:
+        fc._land_min_mm = agl
+    if agl > fc._land_max_mm:
+        fc._land_max_mm = agl
+    if fc.now_ms - fc._land_start_ms >= cfg.landed_window_ms:
+        # landed under the main, or under the only parachute when there is no main
+        if ((fc.state == MAIN or not cfg.main_deploy_mm)
+                and fc._land_max_mm - fc._land_min_mm <= cfg.landed_alt_mm):
+            fc.state = LANDED
+            fc.events |= EV_LANDED
+        fc._land_start_ms = fc.now_ms
+        fc._land_min_mm = fc._land_max_mm = agl
+
+
+def _pyro(fc, now_ms):
+    """Each pulse ends when its time is over (while any is on: the caller's test)."""
+    if fc.pyro_drogue and now_ms >= fc._drogue_off_ms:
+        fc.pyro_drogue = False
+        fc._pulses -= 1
+    if fc.pyro_main and now_ms >= fc._main_off_ms:
+        fc.pyro_main = False
+        fc._pulses -= 1
+    if fc.pyro_backup_drogue and now_ms >= fc._backup_drogue_off_ms:
+        fc.pyro_backup_drogue = False
+        fc._pulses -= 1
+    if fc.pyro_backup_main and now_ms >= fc._backup_main_off_ms:
+        fc.pyro_backup_main = False
+        fc._pulses -= 1
+
+
+# Sensor arbitration and degraded modes (docs/DESIGN.md, "Sensor arbitration").
+
+
+def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
+    """The decision mode from each sensor's health; the accelerometer's velocity bounds from
+    launch; in coast, the barometer left out while it disagrees with them. Returns ``have``
+    without an excluded barometer."""
+    cfg = fc.cfg
+    arb = fc.arb
+    flags = fc.health.flags
+    # the track's time: since the accelerometer's previous reading, or since the part of a
+    # silence beyond _ACCEL_HOLD_US was accounted as missing (each reading stands for its own
+    # interval, so sensors on separate rows integrate as a row with both)
+    dt_ms = now_ms - fc._arb_ms
+    coasting = state == FAST or state == COAST
+    if (state == PAD and (arb.margin_mmps or not arb.valid) and cfg.has_accel
+            and not (acc_kin > cfg.launch_accel_mmps2 or clipped)):
+        arb.start(0)  # at rest: the track starts again at the first boost reading
+    if flags & HEALTH_ACCEL_BAD and arb.valid:
+        arb.stop()  # its integral no longer bounds anything, for the rest of the flight
+    valid = arb.valid
+    if not (valid and state < DROGUE):  # the track serves the ascent's decisions
+        fc._arb_ms = now_ms
+    elif have & HAVE_ACCEL or clipped:
+        fc._arb_ms = now_ms
+        if coasting and acc_kin > -G_MMPS2 // 2 and not clipped:
+            arb.integrate_missing(dt_ms)  # not drag: a shock or an ejection (see step)
+        else:
+            arb.integrate(dt_ms, acc_kin, accel_mmps2, clipped)
+    elif dt_ms * 1000 > _ACCEL_HOLD_US:
+        fc._arb_ms = now_ms
+        arb.integrate_missing(dt_ms)  # no usable reading for that long: unknown by 1 g x dt
+    mode = 0
+    if cfg.has_baro:
+        kf = fc.kf
+        arb.add_baro(now_ms, alt_mm, have & HAVE_BARO, kf.vel_q4 >> 4, kf.bias_q4 >> 4)
+        if not flags & HEALTH_BARO_BAD:
+            mode = MODE_BARO
+    if cfg.has_accel and not flags & HEALTH_ACCEL_BAD and (valid or not fc.launched):
+        mode |= MODE_ACCEL
+    excluded = coasting and mode == MODE_BOTH and not arb.baro_consistent
+    fc.baro_excluded = excluded
+    if excluded:
+        mode = MODE_ACCEL
+    if mode & MODE_BARO and state == COAST and fc._baro_coast_ms < _ANCHORED_MS:
+        fc._baro_coast_ms += dt_ms
+    old = fc.mode
+    if mode != old:
+        if old & MODE_BARO and not mode & MODE_BARO:
+            arb.set_anchor()
+            fc._filter_anchored = fc._baro_coast_ms >= _ANCHORED_MS
+            # the guard of _apogee_enabled: only an anchor whose bias the filter had learnt
+            fc._dead_reckoning = fc._dead_reckoning or fc._filter_anchored
+            fc._baro_coast_ms = 0
+        elif mode & MODE_BARO and not old & MODE_BARO:
+            fc._reanchor = True
+        fc.mode = mode
+        fc.events |= EV_MODE
+    if not mode & MODE_BARO:
+        have &= HAVE_ACCEL
+    return have
+
+
+def _accel_only_apogee(fc):
+    """Accelerometer only (no barometer, or it is lost, frozen or excluded): apogee when the
+    highest vertical velocity its error budget allows is at or below zero: the track's upper
+    bound from launch, or, if the barometer had corrected the filter in coast for
+    _ANCHORED_MS before it was lost, the filter's velocity before the fault was detected plus
+    the track's change and margin since (``Arbitration.set_anchor``). Never early; late by the
+    margin / g. A clipped track bounds nothing from above: then the backup timer."""
+    arb = fc.arb
+    if not arb.upper_valid:
+        return False
+    return arb.upper_mmps() <= 0 or (
+        fc._filter_anchored and arb.anchored_upper_mmps() <= 0)
+
+def _main_due_without_baro(fc, since_drogue_ms):
+    """Barometer lost or frozen under the drogue (proven, after the guard time): the main fires
+    when the last barometric reading that moved and the steady descent rate then predict the
+    main altitude; without such a descent (no barometer on the board, or none seen)
+    ``main_delay_s`` after the drogue; at ``main_backup_s`` after the drogue at the latest."""
+    cfg = fc.cfg
+    if cfg.main_backup_ms and since_drogue_ms >= cfg.main_backup_ms:
+        return True
+    # the mean rate of the steady descent seen (decimetres and tenths of a second: the
+    # product below stays within 31 bits for 5 km and 600 s)
+    fell_dm = (fc._steady_agl_mm - fc._good_agl_mm) // 100
+    took_ds = (fc._good_ms - fc._steady_ms) // 100
+    if (fc._steady_ms < 0 or took_ds < _STEADY_MIN_DS
+            or fell_dm * 10 < took_ds * _DESCENT_MIN_MMPS // 1000):
+        return since_drogue_ms >= cfg.main_delay_ms  # no steady descent seen: no prediction
+    drop_dm = (fc._good_agl_mm - cfg.main_deploy_mm) // 100
+    return drop_dm <= 0 or fc.now_ms - fc._good_ms >= drop_dm * took_ds // fell_dm * 100
 
 
 def _field(value, top):

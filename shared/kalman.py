@@ -60,25 +60,19 @@ def _mul_gain(e, m, s):
     return ((e >> 14) * m + (((e & 0x3FFF) * m + (1 << (s - 1))) >> 14)) >> (s - 14)
 
 
-def _innovation(meas_mm, state_q4):
-    """(meas << 4) - state, with the measurement clamped to +-MEAS_LIMIT_MM and the result to
-    +-_INNOV_LIMIT; |state_q4| <= 2**29 keeps the difference inside 31 bits."""
-    if meas_mm > MEAS_LIMIT_MM:
-        meas_mm = MEAS_LIMIT_MM
-    elif meas_mm < -MEAS_LIMIT_MM:
-        meas_mm = -MEAS_LIMIT_MM
-    e = (meas_mm << 4) - state_q4
-    if e > _INNOV_LIMIT:
-        return _INNOV_LIMIT
-    if e < -_INNOV_LIMIT:
-        return -_INNOV_LIMIT
-    return e
-
-
 def _baro_innovation(kf, alt_mm):
-    """The barometric innovation, kept in ``innov_alt_q4``, then weighted (Mach de-weighting)."""
-    e = _innovation(alt_mm, kf.alt_q4)
-    kf.innov_alt_q4 = e
+    """The barometric innovation (alt << 4) - alt_q4, the reading clamped to +-MEAS_LIMIT_MM and
+    the result to +-_INNOV_LIMIT (|alt_q4| <= 2**29 keeps the difference inside 31 bits), then
+    weighted (Mach de-weighting)."""
+    if alt_mm > MEAS_LIMIT_MM:
+        alt_mm = MEAS_LIMIT_MM
+    elif alt_mm < -MEAS_LIMIT_MM:
+        alt_mm = -MEAS_LIMIT_MM
+    e = (alt_mm << 4) - kf.alt_q4
+    if e > _INNOV_LIMIT:
+        e = _INNOV_LIMIT
+    elif e < -_INNOV_LIMIT:
+        e = -_INNOV_LIMIT
     weight = kf.baro_weight_256
     if weight < 256:
         e = (e >> 8) * weight
@@ -86,8 +80,18 @@ def _baro_innovation(kf, alt_mm):
 
 
 def _accel_innovation(kf, acc_mmps2):
-    # acc_q4 + bias_q4 stays within 2**28 (both clamped to 2**27): the sum is inside 31 bits
-    return _innovation(acc_mmps2, kf.acc_q4 + kf.bias_q4)
+    """The accelerometer's innovation (acc << 4) - (acc_q4 + bias_q4), clamped as the barometer's:
+    acc_q4 + bias_q4 stays within 2**28 (both clamped to 2**27), the difference inside 31 bits."""
+    if acc_mmps2 > MEAS_LIMIT_MM:
+        acc_mmps2 = MEAS_LIMIT_MM
+    elif acc_mmps2 < -MEAS_LIMIT_MM:
+        acc_mmps2 = -MEAS_LIMIT_MM
+    e = (acc_mmps2 << 4) - (kf.acc_q4 + kf.bias_q4)
+    if e > _INNOV_LIMIT:
+        return _INNOV_LIMIT
+    if e < -_INNOV_LIMIT:
+        return -_INNOV_LIMIT
+    return e
 
 
 def _add2(kf, eh, ea, rh, ra, i):
@@ -118,7 +122,23 @@ def _add2(kf, eh, ea, rh, ra, i):
     m = ra[i + 10]
     s = ra[i + 11]
     acc += (ha * m + ((la * m + (1 << (s - 1))) >> 14)) >> (s - 14)
-    _store(kf, alt, vel, acc)
+    # the state stored, clamped to its limits (written out: a call of a helper for it cost a
+    # tenth of a correction on MicroPython)
+    if alt > ALT_LIMIT_Q4:
+        alt = ALT_LIMIT_Q4
+    elif alt < -ALT_LIMIT_Q4:
+        alt = -ALT_LIMIT_Q4
+    if vel > RATE_LIMIT_Q4:
+        vel = RATE_LIMIT_Q4
+    elif vel < -RATE_LIMIT_Q4:
+        vel = -RATE_LIMIT_Q4
+    if acc > RATE_LIMIT_Q4:
+        acc = RATE_LIMIT_Q4
+    elif acc < -RATE_LIMIT_Q4:
+        acc = -RATE_LIMIT_Q4
+    kf.alt_q4 = alt
+    kf.vel_q4 = vel
+    kf.acc_q4 = acc
 
 
 def _add(kf, e, row, i, stride):
@@ -138,11 +158,8 @@ def _add(kf, e, row, i, stride):
     m = row[i]
     s = row[i + 1]
     acc = kf.acc_q4 + ((hi * m + ((lo * m + (1 << (s - 1))) >> 14)) >> (s - 14))
-    _store(kf, alt, vel, acc)
-
-
-def _store(kf, alt, vel, acc):
-    """Store the state, clamped to its limits."""
+    # the state stored, clamped to its limits (written out: a call of a helper for it cost a
+    # tenth of a correction on MicroPython)
     if alt > ALT_LIMIT_Q4:
         alt = ALT_LIMIT_Q4
     elif alt < -ALT_LIMIT_Q4:
@@ -178,7 +195,6 @@ class Kalman:
         self.bias_q4 = 0
         self.baro_weight_256 = 256  # barometer innovations are scaled by this / 256 (Mach de-weighting)
         self.bias_limit_q4 = RATE_LIMIT_Q4  # |bias_q4| at most this: the bias a real sensor can have
-        self.innov_alt_q4 = 0  # last barometric innovation, before weighting
 
     def reset(self, alt_mm, vel_mmps=0, acc_mmps2=0):
         """Set the state from values in mm, mm/s, mm/s^2."""
@@ -194,11 +210,22 @@ class Kalman:
     def predict(self, row):
         """Advance the state by one period T = 1 / row[0] s (constant-acceleration model)."""
         rate = row[0]
-        acc = self.acc_q4
         vel = self.vel_q4
-        dv = (acc + (rate >> 1)) // rate  # a*T, rounded
-        # h += v*T + a*T^2/2 = (2v + a*T) / (2 rate), rounded
-        _store(self, self.alt_q4 + (2 * vel + dv + rate) // (2 * rate), vel + dv, acc)
+        dv = (self.acc_q4 + (rate >> 1)) // rate  # a*T, rounded
+        # h += v*T + a*T^2/2 = (2v + a*T) / (2 rate), rounded; the acceleration stays as it is
+        # (within its limits: every store of it clamps it)
+        alt = self.alt_q4 + (2 * vel + dv + rate) // (2 * rate)
+        if alt > ALT_LIMIT_Q4:
+            alt = ALT_LIMIT_Q4
+        elif alt < -ALT_LIMIT_Q4:
+            alt = -ALT_LIMIT_Q4
+        vel += dv
+        if vel > RATE_LIMIT_Q4:
+            vel = RATE_LIMIT_Q4
+        elif vel < -RATE_LIMIT_Q4:
+            vel = -RATE_LIMIT_Q4
+        self.alt_q4 = alt
+        self.vel_q4 = vel
 
     def correct(self, row_alt, row_acc, alt_mm, acc_mmps2):
         """Correct with a barometric altitude (mm) and a kinematic acceleration (mm/s^2); each
@@ -218,8 +245,20 @@ class Kalman:
         eh = _baro_innovation(self, alt_mm)
         ea = _accel_innovation(self, acc_mmps2)
         _add2(self, eh, ea, row_alt, row_acc, 25)
-        self.bias_q4 = _clamp(self.bias_q4 + _mul_gain(eh, row_alt[37], row_alt[38])
-                              + _mul_gain(ea, row_acc[39], row_acc[40]), self.bias_limit_q4)
+        # the bias gains' products as _mul_gain's, written out as in _add2 (coast runs this on
+        # most samples)
+        m = row_alt[37]
+        s = row_alt[38]
+        bias = self.bias_q4 + (((eh >> 14) * m + (((eh & 0x3FFF) * m + (1 << (s - 1))) >> 14)) >> (s - 14))
+        m = row_acc[39]
+        s = row_acc[40]
+        bias += ((ea >> 14) * m + (((ea & 0x3FFF) * m + (1 << (s - 1))) >> 14)) >> (s - 14)
+        limit = self.bias_limit_q4
+        if bias > limit:
+            bias = limit
+        elif bias < -limit:
+            bias = -limit
+        self.bias_q4 = bias
 
     def correct_baro_part(self, row, alt_mm, coast):
         """Correct with a barometric altitude (mm) through the barometer's column of the two-sensor

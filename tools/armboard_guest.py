@@ -211,21 +211,22 @@ def count_filter(flight, phases, rate_hz, lock=True):
 
 # (label, object path from the flight computer or "module:" + module name, attribute, arity)
 PROFILE = (
-    ("FlightComputer._arbitrate", "fc", "_arbitrate", 5),
-    ("FlightComputer._set_baro_weight", "fc", "_set_baro_weight", 0),
-    ("FlightComputer._set_model", "fc", "_set_model", 1),
-    ("FlightComputer._apogee_enabled", "fc", "_apogee_enabled", 0),
-    ("FlightComputer._accel_only_apogee", "fc", "_accel_only_apogee", 0),
-    ("FlightComputer._update_averages", "fc", "_update_averages", 3),
-    ("FlightComputer._update_boost", "fc", "_update_boost", 5),
-    ("FlightComputer._integrate_accel", "fc", "_integrate_accel", 3),
-    ("FlightComputer._transition", "fc", "_transition", 1),
-    ("FlightComputer._false_launch", "fc", "_false_launch", 0),
-    ("FlightComputer._drogue_rule", "fc", "_drogue_rule", 1),
-    ("FlightComputer._landing_rule", "fc", "_landing_rule", 0),
-    ("FlightComputer._check_proof", "fc", "_check_proof", 1),
-    ("FlightComputer._pyro", "fc", "_pyro", 0),
-    ("flight._ema", "module:shared.flight", "_ema", 4),
+    ("flight._arbitrate", "module:shared.flight", "_arbitrate", 8),
+    ("flight._set_baro_weight", "module:shared.flight", "_set_baro_weight", 5),
+    ("flight._configure_detector", "module:shared.flight", "_configure_detector", 5),
+    ("flight._coast_model", "module:shared.flight", "_coast_model", 2),
+    ("flight._apogee_enabled", "module:shared.flight", "_apogee_enabled", 3),
+    ("flight._accel_only_apogee", "module:shared.flight", "_accel_only_apogee", 1),
+    ("flight._update_averages", "module:shared.flight", "_update_averages", 9),
+    ("flight._update_boost", "module:shared.flight", "_update_boost", 7),
+    ("flight._integrate_accel", "module:shared.flight", "_integrate_accel", 5),
+    ("flight._transition", "module:shared.flight", "_transition", 4),
+    ("flight._false_launch", "module:shared.flight", "_false_launch", 2),
+    ("flight._drogue_rule", "module:shared.flight", "_drogue_rule", 4),
+    ("flight._backup_rule", "module:shared.flight", "_backup_rule", 2),
+    ("flight._landing_rule", "module:shared.flight", "_landing_rule", 2),
+    ("flight._check_proof", "module:shared.flight", "_check_proof", 3),
+    ("flight._pyro", "module:shared.flight", "_pyro", 2),
     ("SensorHealth.judge", "health", "judge", 3),
     ("SensorHealth.watch", "health", "watch", 5),
     ("SensorHealth.age", "health", "age", 2),
@@ -257,10 +258,7 @@ PROFILE = (
     ("kalman._accel_innovation", "module:shared.kalman", "_accel_innovation", 2),
     ("kalman._add2", "module:shared.kalman", "_add2", 6),
     ("kalman._add", "module:shared.kalman", "_add", 5),
-    ("kalman._store", "module:shared.kalman", "_store", 4),
     ("kalman._mul_gain", "module:shared.kalman", "_mul_gain", 3),
-    ("kalman._innovation", "module:shared.kalman", "_innovation", 2),
-    ("detector._clamp", "module:shared.detector", "_clamp", 1),
 )
 _P_MAX_DEPTH = 16
 _p_depth = array("i", [0])
@@ -339,6 +337,27 @@ def _wrapper(fn, obj, slot, arity):
                 d = _p_enter()
                 t0 = _tc()
                 r = _f(a, b, c, e, f, h)
+                _p_leave(d, _s, _td(_tc(), t0))
+                return r
+        elif arity == 7:
+            def w(a, b, c, e, f, h, i, _f=fn, _s=slot, _tc=tc, _td=td):
+                d = _p_enter()
+                t0 = _tc()
+                r = _f(a, b, c, e, f, h, i)
+                _p_leave(d, _s, _td(_tc(), t0))
+                return r
+        elif arity == 8:
+            def w(a, b, c, e, f, h, i, j, _f=fn, _s=slot, _tc=tc, _td=td):
+                d = _p_enter()
+                t0 = _tc()
+                r = _f(a, b, c, e, f, h, i, j)
+                _p_leave(d, _s, _td(_tc(), t0))
+                return r
+        elif arity == 9:
+            def w(a, b, c, e, f, h, i, j, k, _f=fn, _s=slot, _tc=tc, _td=td):
+                d = _p_enter()
+                t0 = _tc()
+                r = _f(a, b, c, e, f, h, i, j, k)
                 _p_leave(d, _s, _td(_tc(), t0))
                 return r
         else:
@@ -604,7 +623,7 @@ def op_costs():
 
     def store():
         t0 = tc()
-        kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x; kf.innov_alt_q4 = x  # noqa: E501, E702
+        kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x; kf.bias_q4 = x  # noqa: E501, E702
         return td(tc(), t0)
 
     def subscr():

@@ -73,6 +73,32 @@ def test_frozen_tuple_long_ints_finds_only_those_in_tuples():
     assert armboard.frozen_tuple_long_ints(c_text) == ["const_obj_shared_a_0_1"]
 
 
+def test_profile_table_names_functions_that_exist_with_their_arity():
+    # a row whose function was renamed, moved or re-signed is left out of --profile silently
+    import importlib
+    import inspect
+
+    from shared.apogee import VelocityRule
+    from shared.arbitration import Arbitration
+    from shared.detector import Detector
+    from shared.flight import FlightComputer
+    from shared.health import SensorHealth
+    from shared.kalman import Kalman
+    from shared.padcal import PadCalibration
+
+    classes = {"fc": FlightComputer, "health": SensorHealth, "pad": PadCalibration, "arb": Arbitration,
+               "det": Detector, "kf": Kalman, "rule": VelocityRule}
+    for label, where, name, arity in guest.PROFILE:
+        if where.startswith("module:"):
+            fn = getattr(importlib.import_module(where[7:]), name, None)
+            params = arity
+        else:
+            fn = getattr(classes[where], name, None)
+            params = arity + 1  # self
+        assert fn is not None, label
+        assert len(inspect.signature(fn).parameters) == params, label
+
+
 @pytest.fixture(scope="session")
 def fw_files(tmp_path_factory):
     """board.json, config.json and the frames of the firmware-path flight, as board files."""
