@@ -649,7 +649,7 @@ def _apogee_enabled(fc, cfg, now_ms):
                      and arb.dead_reckoned_mmps(now_ms) > cfg.dead_reckoning_guard_mmps)
             and cfg.coast_decel_mmps2 << 4 <= -fc.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
             and (fc.coast_measured or not fc.health.accel_ok)
-            and (fc.mode & MODE_ACCEL or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4))
+            and (fc.health.accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4))
 
 
 def _update_averages(fc, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms):

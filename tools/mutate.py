@@ -118,7 +118,7 @@ MUTANTS = [
      "if state >= DROGUE or over <= 0:",
      "tests/tools/test_bench_faults.py::test_accelerometer_lost_late_in_boost_of_a_supersonic_flight"),
     ("baro-only-apogee-tracks", FLIGHT,
-     "and (fc.mode & MODE_ACCEL or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4))",
+     "and (fc.health.accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4))",
      ")",
      ARB_TESTS + "::test_barometer_only_apogee_waits_for_the_filter_to_track_the_barometer"),
     ("main-by-altitude-needs-margin", FLIGHT,

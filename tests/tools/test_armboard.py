@@ -160,9 +160,9 @@ def test_bench_flight_heap_locked_bit_identical(board):
 @pytest.mark.arm
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="over the Cortex-M0 budget since the pad/launch/proof redesign and "
-                   "the sensor arbitration and the per-sensor reading intervals (frozen: 197.5k mean, 248.0k "
-                   "worst after issue 15's cheaper filter, detector, health and pad code; "
-                   "docs/BENCHMARKS.md): the step must get cheaper")
+                   "the sensor arbitration and the per-sensor reading intervals (frozen: 152.6k mean, 199.1k "
+                   "worst after issue 15's second round of cheaper code; docs/BENCHMARKS.md): the "
+                   "step must get cheaper")
 def test_bench_flight_within_instruction_budget(board):
     form = board[0]
     s = _bench_flight(board)[4]
