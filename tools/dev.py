@@ -4,7 +4,7 @@ Usage (from the repository root, with Python >= 3.11 and git; nothing else):
 
     python3 tools/dev.py run     # set up .venv, run the 200-flight seed study, write plots to out/
     python3 tools/dev.py test    # set up .venv, run every test (MicroPython interpreters included)
-    python3 tools/dev.py fast    # the fast lane while developing: pytest -m "not slow" (under a minute)
+    python3 tools/dev.py fast    # the fast lane while developing: pytest -m "not slow" (about a minute)
 
 Both test commands run pytest on two pytest-xdist workers (``-n 2 --dist loadgroup``: tests that
 share a build directory or an expensive module fixture stay on one worker, tests/conftest.py).
