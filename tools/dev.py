@@ -4,7 +4,10 @@ Usage (from the repository root, with Python >= 3.11 and git; nothing else):
 
     python3 tools/dev.py run     # set up .venv, run the 200-flight seed study, write plots to out/
     python3 tools/dev.py test    # set up .venv, run every test (MicroPython interpreters included)
-    python3 tools/dev.py fast    # the fast lane while developing: pytest -m "not slow" (about 2 minutes)
+    python3 tools/dev.py fast    # the fast lane while developing: pytest -m "not slow" (about a minute)
+
+Both test commands run pytest on two pytest-xdist workers (``-n 2 --dist loadgroup``: tests that
+share a build directory or an expensive module fixture stay on one worker, tests/conftest.py).
 
 The environment gets the exact versions in requirements.lock (with their hashes, by plain pip),
 then the project itself (editable, without dependencies). It is reinstalled only when
@@ -61,6 +64,11 @@ def ensure_venv():
     STAMP.write_text(digest)
 
 
+# two workers (CI's two cores); loadgroup keeps each xdist_group on one worker, and the work goes
+# out in the order tests/conftest.py gives (the ARM builds first)
+PYTEST = ("-m", "pytest", "-q", "-n", "2", "--dist", "loadgroup", "--no-loadscope-reorder")
+
+
 def main(argv):
     if sys.version_info < MIN_PYTHON:
         print("error: this project needs Python >= %d.%d (this is %d.%d: %s); run tools/dev.py with a newer "
@@ -75,9 +83,9 @@ def main(argv):
         cmd = [py, "-m", "desktop", "montecarlo", "--flights", "200", "--seed", "1", "--plots", "out"]
     elif argv[0] == "fast":
         # the development lane: no RocketPy flights, MicroPython interpreters or subprocesses
-        return subprocess.run([py, "-m", "pytest", "-q", "-m", "not slow"], cwd=str(ROOT)).returncode
+        return subprocess.run([py, *PYTEST, "-m", "not slow"], cwd=str(ROOT)).returncode
     else:
-        cmd = [py, "-m", "pytest", "-q"]
+        cmd = [py, *PYTEST]
     env = dict(os.environ, APOGEE_REQUIRE_MICROPYTHON="1")
     return subprocess.run(cmd, cwd=str(ROOT), env=env).returncode
 

@@ -15,6 +15,9 @@ from shared.config import load_config
 ROOT = Path(__file__).resolve().parents[2]
 BOARDS = ROOT / "device" / "boards"
 DEPLOY = [sys.executable, str(ROOT / "tools" / "deploy.py")]
+# tools/deploy.py stages the board's files in the fixed build/deploy/: one pytest-xdist worker runs
+# this file's tests in turn.
+pytestmark = pytest.mark.xdist_group("build-deploy")
 
 
 def board(name):

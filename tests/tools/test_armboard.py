@@ -28,6 +28,9 @@ from tools.bench_step import run_fc_flight, run_flight
 from tools.synthetic_flight import make_flight
 
 ARM = [pytest.mark.arm, pytest.mark.slow]
+# One pytest-xdist worker runs this file in turn: the firmware builds, the mpy files and the board
+# files share build/arm/ (tools/armboard.py), and each form's board boots once.
+pytestmark = pytest.mark.xdist_group("arm")
 BOARD = "m0"
 # Budget of FlightComputer.step on the Cortex-M0, heap locked (guest instructions per sample):
 # 93k mean and 107k worst measured; the margin is for the arbitration work to come.
