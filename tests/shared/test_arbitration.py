@@ -17,7 +17,7 @@ import shared.flight as flight_module
 from shared.arbitration import Arbitration
 from shared.config import load_config
 from shared.detector import HAVE_BOTH
-from shared.flight import EV_HEALTH, EV_MODE, MODE_ACCEL, MODE_BARO
+from shared.flight import EV_HEALTH, EV_LAUNCH, EV_MODE, MODE_ACCEL, MODE_BARO
 from shared.health import HEALTH_ACCEL_STUCK, HEALTH_BARO_LOST, HEALTH_BARO_STUCK, SensorHealth
 from tests.support.fault_flight import MACH_ROCKET, SUBSONIC_ROCKET, Faults, Rocket, fly, run
 
@@ -112,6 +112,17 @@ def test_barometer_only_board_through_mach_with_its_lockout(c, sigma):
     slow_s = clean.time_s[(clean.time_s > rocket.burn_s) & (clean.mach < 0.8)][0]
     fl = flight(rocket, Faults(mach_c=c, mach_sigma=sigma))
     drogue_near_apogee(fl, sensors="baro", mach_lockout_s=round(float(slow_s) + 3, 1))
+
+
+def test_no_apogee_within_the_mach_time_lockout():
+    """mach_lockout_s holds the flight in the fast state (no apogee) for that long after launch,
+    even past a real apogee: the drogue comes when the lockout ends, not before."""
+    fl = flight(SUBSONIC_ROCKET)
+    lockout_s = round(fl.apogee_s + 2.0, 1)
+    out = run(fl, "baro", mach_lockout_s=lockout_s, backup_drogue_s=round(fl.apogee_s + 6))
+    launch_s = out.events[0][0]  # (barometer-only: the launch is seen on the climb, 0.6 s in)
+    assert out.events[0][1] & EV_LAUNCH
+    assert out.drogue_s is not None and lockout_s <= out.drogue_s - launch_s <= lockout_s + 0.3
 
 
 def test_barometer_only_apogee_waits_for_the_filter_to_track_the_barometer():

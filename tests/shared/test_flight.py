@@ -211,8 +211,10 @@ def test_apogee_delay_and_no_fire_through_mach(rule):
     # 100 g for 3.5 s: 3.4 km/s is beyond the Mach lockout; the barometer lies by a transonic
     # error (the seed rule's "altitude fell twice" sees it); no apogee while fast, drogue 2 s
     # after apogee
+    # (an accelerometer with noise: a reading held identical above 1 g is a frozen part, and the
+    # barometer alone would then decide)
     dts, alts, accs, truth, apogee = _flight(boost_mmps2=90000, burn_ms=4000, after_apogee_s=5,
-                                             ground_mm=0, alt_noise_mm=1000)
+                                             ground_mm=0, alt_noise_mm=1000, acc_noise_mmps2=200)
     speed = np.concatenate([[0], np.diff(truth) * 100 / 1000])  # m/s
     transonic = (speed > 300) & (speed < 420)
     alts = alts - (transonic * 150000).astype(np.int64)  # 150 m low while transonic
