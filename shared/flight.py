@@ -151,6 +151,9 @@ GATE_ALT_MM = const(50000)
 _LATE_COAST_MMPS = const(30000)  # below this vertical speed in coast, acceleration = -g
 GATE_ACC_MMPS2 = const(30000)
 _GATE_START_MS = const(500)
+# The detector's phase (``_det_phase``): the state (0 to 6) plus one of these flags
+_PHASE_RESUMING = const(8)  # a resumed filter settling
+_PHASE_TAIL_OFF = const(16)  # within _GATE_START_MS of burnout
 COAST_ACC_MAX_Q4 = const(-78456)  # -0.5 g in 1/16 mm/s^2: the most a coasting rocket's vertical
 # acceleration can be (it is -g - drag going up; -0.5 g leaves room for tilt and noise)
 # Near apogee vertical drag vanishes: the averaged acceleration must lie between -10 g and
@@ -383,9 +386,9 @@ class FlightComputer:
         # fast change: no gates yet)
         phase = state
         if resuming:
-            phase += 8
+            phase += _PHASE_RESUMING
         elif state >= FAST and now_ms - self.burnout_ms < _GATE_START_MS:
-            phase += 16
+            phase += _PHASE_TAIL_OFF
         det = self.det
         if phase != self._det_phase:
             self._det_phase = phase
