@@ -224,20 +224,19 @@ def user_settings(traj, main_m: float | None) -> dict:
     return out
 
 
-def run_methods(rec, pres, acc, clip, board: str, backup_s: float, main_m: float | None,
-                settings: dict | None = None) -> dict:
+def run_methods(rec, pres, acc, clip, board: str, main_m: float | None, settings: dict) -> dict:
     """{method: (drogue time, main time)} on one faulted record, for a board with both sensors
-    ("both") or a barometer only ("baro", the same record without its accelerometer).
-    ``settings``: ``user_settings``' overrides (``backup_s`` and ``main_m`` win)."""
+    ("both") or a barometer only ("baro", the same record without its accelerometer), configured
+    with ``settings`` (``user_settings``: the common keys, then the board's own)."""
     from desktop.study.altos import AltosSettings
 
     par = rec.parameters
     plus = G0 * (1.0 + par["accel_scale_error"]) + par["accel_bias_mps2"]
     minus = -G0 * (1.0 + par["accel_scale_error"]) + par["accel_bias_mps2"]
     log = flight_log(rec.time_s, pres, acc if board == "both" else None, rec.metadata)
-    overrides = {k: v for k, v in (settings or {}).items() if k not in BOARDS}
-    overrides.update((settings or {}).get(board, {}))
-    overrides.update({"sensors": board, "backup_drogue_s": backup_s})
+    overrides = {k: v for k, v in settings.items() if k not in BOARDS}
+    overrides.update(settings.get(board, {}))
+    overrides["sensors"] = board
     if main_m is not None:
         overrides["main_deploy_m"] = main_m
     if clip is not None:
@@ -255,7 +254,6 @@ def evaluate(task) -> list[dict]:
     from desktop.study.rocket_flight import settings_for
 
     name, rocket_i, traj_index, flights, seed, cache, user, max_mach = task
-    backup_s = user["backup_drogue_s"]
     traj = trajectory(name, seed, traj_index, cache)
     settings = settings_for(_rocket_path(name), seed)
     spec = load_rocket(_rocket_path(name))
@@ -279,7 +277,7 @@ def evaluate(task) -> list[dict]:
             for board in BOARDS:
                 if board == "baro" and kind not in flt.BARO_CLASSES:
                     continue
-                results = run_methods(rec, pres, acc, clip, board, backup_s, main_m, user)
+                results = run_methods(rec, pres, acc, clip, board, main_m, user)
                 for method in METHODS:
                     d, m = results[method]
                     row = {"rocket": name, "class": kind, "board": board, "method": method, "flight": f,

@@ -93,9 +93,8 @@ def supersonic():
 def run(traj, fault, board="both", profile="ms5611+adxl375", seed=7):
     """(drogue s, main s) of the flight computer on the faulted record."""
     rec, pres, acc, clip = bench.faulted_record(traj, fault, profile, seed, bench.board_config(100.0))
-    settings = bench.user_settings(traj, MAIN_M)
-    return bench.run_methods(rec, pres, acc, clip, board, settings["backup_drogue_s"], MAIN_M,
-                             settings)["flight-computer"]
+    return bench.run_methods(rec, pres, acc, clip, board, MAIN_M,
+                             bench.user_settings(traj, MAIN_M))["flight-computer"]
 
 
 def fault(kind, **params):
