@@ -186,33 +186,22 @@ def test_pad_scenarios_with_backups_never_fire(sensors, offset_m, rise_s, hold_s
         assert not any(fired.values()) and not any(on.values()), (rule, fired)
 
 
-def test_backup_drogue_needs_proof_of_flight():
-    dts, alts, accs, truth, apogee = flight(after_apogee_s=60)
+@pytest.mark.parametrize("event, channel, after_apogee_s", [
+    (EV_DROGUE, "backup_drogue", 60), (EV_MAIN, "backup_main", 200),
+], ids=["drogue", "main"])
+def test_backup_needs_proof_of_flight(event, channel, after_apogee_s):
+    dts, alts, accs, truth, apogee = flight(after_apogee_s=after_apogee_s)
 
     def unproven(fc):
         fc.launched = fc.flight_proven = False
 
-    # the same resume without the corruption fires the backup drogue: the test can fail
-    fc, j = corrupted(dts, alts, accs, EV_DROGUE, lambda fc: None, **BACKUPS)
-    assert fly(dts, alts, accs, HAVE_BOTH, fc=fc, start=j)[1]["backup_drogue"]
-    fc, j = corrupted(dts, alts, accs, EV_DROGUE, unproven, **BACKUPS)
+    # the same resume without the corruption fires the backup: the test can fail
+    fc, j = corrupted(dts, alts, accs, event, lambda fc: None, **BACKUPS)
+    assert fly(dts, alts, accs, HAVE_BOTH, fc=fc, start=j)[1][channel]
+    fc, j = corrupted(dts, alts, accs, event, unproven, **BACKUPS)
     assert not fc.flight_proven
     _, fired, on = fly(dts, alts, accs, HAVE_BOTH, fc=fc, start=j)
-    assert not fired["backup_drogue"] and not on["backup_drogue"]
-
-
-def test_backup_main_needs_proof_of_flight():
-    dts, alts, accs, truth, apogee = flight(after_apogee_s=200)
-
-    def unproven(fc):
-        fc.launched = fc.flight_proven = False
-
-    fc, j = corrupted(dts, alts, accs, EV_MAIN, lambda fc: None, **BACKUPS)
-    assert fly(dts, alts, accs, HAVE_BOTH, fc=fc, start=j)[1]["backup_main"]
-    fc, j = corrupted(dts, alts, accs, EV_MAIN, unproven, **BACKUPS)
-    assert not fc.flight_proven
-    _, fired, on = fly(dts, alts, accs, HAVE_BOTH, fc=fc, start=j)
-    assert not fired["backup_main"] and not on["backup_main"]
+    assert not fired[channel] and not on[channel]
 
 
 def test_backup_drogue_only_after_the_drogue_fired():
