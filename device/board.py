@@ -19,6 +19,8 @@ the status outputs and the arming input. Sensor failures at start-up are recorde
 ``Hardware.errors`` (the board stays disarmed and beeps the error), never raised.
 """
 
+from device.pyro import NAMES as CHANNELS  # the pyro channels in output order
+
 try:
     from micropython import const
 except ImportError:  # CPython (tools/deploy.py, tests)
@@ -40,9 +42,7 @@ GPIO_COUNT = {"rp2040": 30, "rp2350": 48, "esp32": 40, "esp32s3": 49, "esp32c3":
 SAMPLE_RATES_HZ = (10, 20, 25, 50, 100, 200)  # the rates of shared/gains_table.py
 BARO_PARTS = ("BMP388", "BMP390", "BMP280", "MS5611")
 ACCEL_PARTS = ("ADXL375", "ADXL345", "MPU6050", "LSM6DSO", "LSM6DSO32")
-# Pyro channels in output order (device/pyro.py indexes them so): the first two are required.
-CHANNELS = ("drogue", "main", "backup_drogue", "backup_main")
-REQUIRED_CHANNELS = 2
+REQUIRED_CHANNELS = 2  # the first CHANNELS (drogue, main) every board has
 # The configuration key that enables each backup channel (shared/config.py; 0 = off).
 BACKUP_KEYS = {"backup_drogue": "backup_drogue_delay_s", "backup_main": "backup_main_m"}
 AXES = {"+x": (0, 1), "-x": (0, -1), "+y": (1, 1), "-y": (1, -1), "+z": (2, 1), "-z": (2, -1)}

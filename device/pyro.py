@@ -18,7 +18,7 @@ DROGUE = 0
 MAIN = 1
 BACKUP_DROGUE = 2
 BACKUP_MAIN = 3
-NAMES = ("drogue", "main", "backup_drogue", "backup_main")  # device/board.py CHANNELS
+NAMES = ("drogue", "main", "backup_drogue", "backup_main")  # the channels, by index
 
 
 def _cutter(pin):
