@@ -1015,6 +1015,7 @@ def _accel_only_apogee(fc):
     return arb.upper_mmps() <= 0 or (
         fc._filter_anchored and arb.anchored_upper_mmps() <= 0)
 
+
 def _main_due_without_baro(fc, since_drogue_ms):
     """Barometer lost or frozen under the drogue (proven, after the guard time): the main fires
     when the last barometric reading that moved and the steady descent rate then predict the
