@@ -411,7 +411,14 @@ class FlightComputer:
             # the filter decides only while the barometer is in use: with no usable sensor
             # (mode 0: a barometer-only board whose barometer froze or died) its velocity is a
             # prediction that no reading supports, and only the backup timer may fire
-            apogee = det.step(dt_us, alt_mm, acc_kin, have, enabled and mode & MODE_BARO)
+            filter_decides = enabled and mode & MODE_BARO
+            if filter_decides and not health.accel_ok and det.inside_us[0] >= 0:
+                # nor, with the barometer alone, while the filter re-converges after its gate
+                # re-synchronised (open until the innovation stayed inside it GATE_REARM_US): its
+                # velocity swings through the linear filter's transient, no measurement of the
+                # motion (a 290 m transient in mid coast: +150 m/s, then zero at 50 m/s climbing)
+                filter_decides = False
+            apogee = det.step(dt_us, alt_mm, acc_kin, have, filter_decides)
             if mode == MODE_ACCEL and enabled:
                 apogee = _accel_only_apogee(self)
         else:

@@ -125,14 +125,16 @@ def test_no_apogee_within_the_mach_time_lockout():
     assert out.drogue_s is not None and lockout_s <= out.drogue_s - launch_s <= lockout_s + 0.3
 
 
-def test_barometer_only_apogee_waits_for_the_filter_to_track_the_barometer():
-    """Without its mach_lockout_s, a barometer-only board through a static-port error is held by
-    the tracking check (baro_track_m, AltOS's "not transonic" rule); with the check at its widest
-    the drogue comes far before apogee."""
+def test_barometer_only_board_through_mach_without_its_lockout():
+    """Without its mach_lockout_s, a barometer-only board through a static-port error is held at
+    apogee by two rules: the tracking check (baro_track_m, AltOS's "not transonic" rule) and no
+    apogee while the filter re-converges after its gate re-synchronised. Each alone holds it
+    (before the second rule, the widest tracking check let the drogue fire 19.5 s early); the
+    tests that each is needed: tests/tools/test_bench_faults.py."""
     fl = flight(MACH14_ROCKET, Faults(mach_c=-0.1, mach_sigma=0.05))
     backup_s = round(fl.apogee_s + 3)
     assert run(fl, "baro", backup_drogue_s=backup_s).early_s <= EARLY_LIMIT_S
-    assert run(fl, "baro", backup_drogue_s=backup_s, baro_track_m=100).early_s > 5
+    assert run(fl, "baro", backup_drogue_s=backup_s, baro_track_m=100).early_s <= EARLY_LIMIT_S
 
 
 @pytest.mark.parametrize("kind", ["frozen", "lost"])

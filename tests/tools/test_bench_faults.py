@@ -256,6 +256,31 @@ def test_baro_only_transient_in_mid_coast_never_fires_early(subsonic, dh_m, deca
     assert_not_early(subsonic, drogue)
 
 
+@pytest.mark.parametrize("baro_track_m, early", [(10, False), (100, True)],
+                         ids=["tracking_check", "tracking_check_widest"])
+def test_baro_only_apogee_waits_for_the_filter_to_track_the_barometer(subsonic, baro_track_m, early,
+                                                                     monkeypatch):
+    """-45 m within 0.1 s, 1 s before apogee, decaying over 2 s: inside the gate, so the filter
+    follows it and its velocity dips through zero. The tracking check (baro_track_m) holds apogee
+    until the filter is back on the barometer: 0.10 s early; at its widest, 0.73 s early."""
+    run_fc = bench.run_flight_computer
+    monkeypatch.setattr(bench, "run_flight_computer",
+                        lambda log, overrides: run_fc(log, dict(overrides, baro_track_m=baro_track_m)))
+    drogue, _ = run(subsonic, fault("transient_midcoast", dh_m=-45.0, start_s=subsonic.apogee_time_s - 1.0,
+                                    rise_s=0.1, decay_s=2.0, hold_until_s=None), board="baro")
+    assert (subsonic.apogee_time_s - drogue > EARLY_S) == early
+
+
+def test_baro_only_apogee_waits_for_the_filter_to_reconverge_after_a_resync(subsonic):
+    # +300 m within 0.3 s in mid coast, decaying over 2 s: the gate rejects it for a second, then
+    # re-synchronises, and the re-converging filter's velocity swung through zero 5.65 s before
+    # apogee. No apogee until the gate has re-armed (0.31 s early).
+    start = 0.5 * (subsonic.burnout_time_s + subsonic.apogee_time_s)
+    drogue, _ = run(subsonic, fault("transient_midcoast", dh_m=300.0, start_s=start, rise_s=0.3,
+                                    decay_s=2.0, hold_until_s=None), board="baro")
+    assert_not_early(subsonic, drogue)
+
+
 def test_baro_only_frozen_barometer_never_fires_early(subsonic):
     drogue, _ = run(subsonic, fault("baro_frozen", phase="coast", start_s=subsonic.burnout_time_s + 2.0),
                     board="baro")
