@@ -3,6 +3,7 @@
     python tools/bench_faults.py                      # the full benchmark (docs/BENCHMARKS.md)
     python tools/bench_faults.py --flights 8 --trajectories 2 --rockets c6_model   # a quick look
     python tools/bench_faults.py --json > faults.json
+    python tools/bench_faults.py --boards baro --classes transient_midcoast --methods flight-computer
 
 Every rocket of ROCKETS flies ``--trajectories`` dispersed RocketPy trajectories (desktop/sim/trajectory.py,
 the dispersions of ``montecarlo --rocket``), each simulated once and cached under ``--cache``. Each
@@ -224,10 +225,12 @@ def user_settings(traj, main_m: float | None) -> dict:
     return out
 
 
-def run_methods(rec, pres, acc, clip, board: str, main_m: float | None, settings: dict) -> dict:
+def run_methods(rec, pres, acc, clip, board: str, main_m: float | None, settings: dict,
+                methods=METHODS) -> dict:
     """{method: (drogue time, main time)} on one faulted record, for a board with both sensors
     ("both") or a barometer only ("baro", the same record without its accelerometer), configured
-    with ``settings`` (``user_settings``: the common keys, then the board's own)."""
+    with ``settings`` (``user_settings``: the common keys, then the board's own); ``methods``: a
+    subset of METHODS."""
     from desktop.study.altos import AltosSettings
 
     par = rec.parameters
@@ -241,11 +244,14 @@ def run_methods(rec, pres, acc, clip, board: str, main_m: float | None, settings
         overrides["main_deploy_m"] = main_m
     if clip is not None:
         overrides["accel_range_g"] = clip / G0
-    fc = run_flight_computer(log, overrides)
-    altos = run_altos(log, AltosSettings(
-        main_deploy_m=main_m if main_m is not None else 250.0, has_accel=board == "both",
-        accel_plus_g_mps2=plus, accel_minus_g_mps2=minus))
-    return {"flight-computer": fc, "altos": altos}
+    out = {}
+    if "flight-computer" in methods:
+        out["flight-computer"] = run_flight_computer(log, overrides)
+    if "altos" in methods:
+        out["altos"] = run_altos(log, AltosSettings(
+            main_deploy_m=main_m if main_m is not None else 250.0, has_accel=board == "both",
+            accel_plus_g_mps2=plus, accel_minus_g_mps2=minus))
+    return out
 
 
 def evaluate(task) -> list[dict]:
@@ -253,32 +259,35 @@ def evaluate(task) -> list[dict]:
     from desktop.io.rocket_file import load_rocket
     from desktop.study.rocket_flight import settings_for
 
-    name, rocket_i, traj_index, flights, seed, cache, user, max_mach = task
+    name, rocket_i, traj_index, flights, seed, cache, user, max_mach, select = task
+    boards, only_classes, methods = select
     traj = trajectory(name, seed, traj_index, cache)
     settings = settings_for(_rocket_path(name), seed)
     spec = load_rocket(_rocket_path(name))
     main_m = spec.main.deploy_altitude_m if spec.main is not None else None
     board_cfg = board_config(settings.rate_hz)
     subsonic = max_mach < flt.FAST_ROCKET_MACH
-    classes = flt.classes_for(max_mach, "both")
+    classes = [c for c in flt.classes_for(max_mach, "both") if c in only_classes]
     out = []
     t_cpu = time.process_time()
     for f in flights:
         record_seed = int(np.random.default_rng([seed, rocket_i, f]).integers(0, 2**63 - 1))
         base = None
         for class_i, kind in enumerate(flt.CLASSES):
-            if kind not in classes:
+            if kind not in classes and kind != "none":  # (the fault-free record is the others' base)
                 continue
             rng = np.random.default_rng([seed, rocket_i, f, class_i])
             fault = flt.draw_fault(kind, rng, traj, traj.end_time_s, subsonic=subsonic)
             rec, pres, acc, clip = faulted_record(traj, fault, settings.profile, record_seed, board_cfg, base)
             if kind == "none":
                 base = rec
-            for board in BOARDS:
+                if kind not in classes:
+                    continue
+            for board in boards:
                 if board == "baro" and kind not in flt.BARO_CLASSES:
                     continue
-                results = run_methods(rec, pres, acc, clip, board, main_m, user)
-                for method in METHODS:
+                results = run_methods(rec, pres, acc, clip, board, main_m, user, methods)
+                for method in methods:
                     d, m = results[method]
                     row = {"rocket": name, "class": kind, "board": board, "method": method, "flight": f,
                            "trajectory": traj_index, "true_apogee_s": traj.apogee_time_s,
@@ -417,6 +426,11 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"seed (default {DEFAULT_SEED})")
     ap.add_argument("--workers", type=int, default=2, help="processes (default 2)")
     ap.add_argument("--rockets", nargs="+", default=list(ROCKETS), help="rockets (default: all six)")
+    ap.add_argument("--classes", nargs="+", default=list(flt.CLASSES),
+                    help="fault classes (default: all; docs/FAULTS.md)")
+    ap.add_argument("--boards", nargs="+", default=list(BOARDS), help="boards (default: both baro)")
+    ap.add_argument("--methods", nargs="+", default=list(METHODS),
+                    help="methods (default: flight-computer altos)")
     ap.add_argument("--cache", default=str(ROOT / "out" / "fault_cache"),
                     help="trajectory cache directory (default out/fault_cache; 'none' for no cache)")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
@@ -448,6 +462,11 @@ def main(argv=None) -> int:
         for r in args.rockets:
             if r not in ROCKETS:
                 raise BenchError(f"unknown rocket {r!r} (known: {', '.join(ROCKETS)})")
+        for option, given, known in (("class", args.classes, flt.CLASSES), ("board", args.boards, BOARDS),
+                                     ("method", args.methods, METHODS)):
+            for x in given:
+                if x not in known:
+                    raise BenchError(f"unknown {option} {x!r} (known: {', '.join(known)})")
         if args.flights < 1 or args.trajectories < 1 or args.workers < 1:
             raise BenchError("--flights, --trajectories and --workers must be at least 1")
     except BenchError as exc:
@@ -481,7 +500,8 @@ def main(argv=None) -> int:
                 continue
             nm = nominal[name]
             flights = list(range(j, args.flights, trajectories))
-            tasks.append((name, rocket_i, j, flights, args.seed, cache, nm["settings"], nm["max_mach"]))
+            tasks.append((name, rocket_i, j, flights, args.seed, cache, nm["settings"], nm["max_mach"],
+                          (args.boards, args.classes, args.methods)))
     rows = []
     from tqdm import tqdm
 

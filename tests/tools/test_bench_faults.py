@@ -313,6 +313,24 @@ def test_unknown_rocket_is_a_one_line_error(capsys):
     assert err.startswith("error: unknown rocket 'saturn_v'") and err.count("\n") == 1
 
 
+@pytest.mark.parametrize("option, value", [("--classes", "gremlins"), ("--boards", "accel"),
+                                           ("--methods", "eggtimer")])
+def test_unknown_class_board_or_method_is_a_one_line_error(capsys, option, value):
+    assert bench.main([option, value]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: unknown %s '%s'" % (option[2:-1].replace("classe", "class"), value))
+    assert err.count("\n") == 1
+
+
+def test_a_selection_runs_only_its_classes_boards_and_methods(subsonic, monkeypatch):
+    monkeypatch.setattr(bench, "trajectory", lambda *a: subsonic)
+    user = bench.user_settings(subsonic, MAIN_M)
+    rows = bench.evaluate(("k400_dual_deploy", 2, 0, [0], 1, None, user, subsonic.max_mach,
+                           (["baro"], ["transient_midcoast"], ["flight-computer"])))
+    assert [(r["class"], r["board"], r["method"]) for r in rows] == [
+        ("transient_midcoast", "baro", "flight-computer")]
+
+
 def test_summarize_counts_early_and_missed_drogues_per_class_and_method(tmp_path, capsys):
     rows = tmp_path / "rows.jsonl"
     base = {"rocket": "c6_model", "board": "both", "flight": 0, "trajectory": 0, "true_apogee_s": 8.0,
