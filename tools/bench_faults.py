@@ -4,6 +4,7 @@
     python tools/bench_faults.py --flights 8 --trajectories 2 --rockets c6_model   # a quick look
     python tools/bench_faults.py --json > faults.json
     python tools/bench_faults.py --boards baro --classes transient_midcoast --methods flight-computer
+    python tools/bench_faults.py --resume earlier.jsonl --rows rest.jsonl   # finish an interrupted run
 
 Every rocket of ROCKETS flies ``--trajectories`` dispersed RocketPy trajectories (desktop/sim/trajectory.py,
 the dispersions of ``montecarlo --rocket``), each simulated once and cached under ``--cache``. Each
@@ -435,6 +436,8 @@ def main(argv=None) -> int:
                     help="trajectory cache directory (default out/fault_cache; 'none' for no cache)")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     ap.add_argument("--rows", metavar="FILE", help="also write every run here as it finishes (JSON lines)")
+    ap.add_argument("--resume", metavar="ROWS", help="skip the trajectories an earlier, interrupted run "
+                    "already finished (its --rows file)")
     ap.add_argument("--summarize", metavar="ROWS", help="print the tables of a --rows file (a finished or "
                     "interrupted run) and exit")
     args = ap.parse_args(argv)
@@ -472,6 +475,14 @@ def main(argv=None) -> int:
     except BenchError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    done = set()
+    if args.resume:
+        try:
+            with open(args.resume) as f:
+                done = {(r["rocket"], r["trajectory"]) for r in map(json.loads, filter(str.strip, f))}
+        except (OSError, ValueError, KeyError) as exc:
+            print(f"error: --resume {args.resume}: cannot read the rows: {exc}", file=sys.stderr)
+            return 2
     try:
         rows_file = open(args.rows, "w") if args.rows else None
     except OSError as exc:
@@ -496,7 +507,7 @@ def main(argv=None) -> int:
     tasks = []
     for j in range(trajectories):
         for rocket_i, name in enumerate(ROCKETS):
-            if name not in args.rockets:
+            if name not in args.rockets or (name, j) in done:
                 continue
             nm = nominal[name]
             flights = list(range(j, args.flights, trajectories))

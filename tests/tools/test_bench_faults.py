@@ -322,6 +322,14 @@ def test_unknown_class_board_or_method_is_a_one_line_error(capsys, option, value
     assert err.count("\n") == 1
 
 
+def test_resume_from_an_unreadable_rows_file_is_a_one_line_error(tmp_path, capsys):
+    rows = tmp_path / "rows.jsonl"
+    rows.write_text('{"rocket": "c6_model"\n')
+    assert bench.main(["--resume", str(rows)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --resume %s: cannot read the rows" % rows) and err.count("\n") == 1
+
+
 def test_a_selection_runs_only_its_classes_boards_and_methods(subsonic, monkeypatch):
     monkeypatch.setattr(bench, "trajectory", lambda *a: subsonic)
     user = bench.user_settings(subsonic, MAIN_M)
