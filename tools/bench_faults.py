@@ -410,6 +410,12 @@ def _write_rows(f, rows):
         f.flush()
 
 
+def _read_rows(path):
+    """The runs of a --rows file (JSON lines)."""
+    with open(path) as f:
+        return [json.loads(line) for line in f if line.strip()]
+
+
 def _init_worker():
     import warnings
 
@@ -438,16 +444,21 @@ def main(argv=None) -> int:
     ap.add_argument("--rows", metavar="FILE", help="also write every run here as it finishes (JSON lines)")
     ap.add_argument("--resume", metavar="ROWS", help="skip the trajectories an earlier, interrupted run "
                     "already finished (its --rows file)")
-    ap.add_argument("--summarize", metavar="ROWS", help="print the tables of a --rows file (a finished or "
-                    "interrupted run) and exit")
+    ap.add_argument("--summarize", metavar="ROWS", nargs="+",
+                    help="print the tables of --rows files (a finished or interrupted run; a later "
+                         "file's runs replace an earlier one's of the same rocket, class, board, method "
+                         "and flight) and exit")
     args = ap.parse_args(argv)
     if args.summarize:
+        runs = {}
         try:
-            with open(args.summarize) as f:
-                rows = [json.loads(line) for line in f if line.strip()]
-        except (OSError, ValueError) as exc:
-            print(f"error: {args.summarize}: cannot read the rows: {exc}", file=sys.stderr)
+            for path in args.summarize:
+                for r in _read_rows(path):
+                    runs[(r["rocket"], r["class"], r["board"], r["method"], r["flight"])] = r
+        except (OSError, ValueError, KeyError) as exc:
+            print(f"error: {path}: cannot read the rows: {exc}", file=sys.stderr)
             return 2
+        rows = list(runs.values())
         for r in rows:
             for k in ("error_s", "speed_at_drogue_mps", "altitude_at_main_m"):
                 if r[k] is None:
@@ -456,7 +467,7 @@ def main(argv=None) -> int:
         if args.json:
             print(json.dumps(_clean({"summary": summary}), indent=1))
             return 0
-        print(f"{len(rows)} runs from {args.summarize}")
+        print(f"{len(rows)} runs from {', '.join(args.summarize)}")
         print()
         for line in overview(summary) + [""] + markdown(summary):
             print(line)
@@ -478,8 +489,7 @@ def main(argv=None) -> int:
     done = set()
     if args.resume:
         try:
-            with open(args.resume) as f:
-                done = {(r["rocket"], r["trajectory"]) for r in map(json.loads, filter(str.strip, f))}
+            done = {(r["rocket"], r["trajectory"]) for r in _read_rows(args.resume)}
         except (OSError, ValueError, KeyError) as exc:
             print(f"error: --resume {args.resume}: cannot read the rows: {exc}", file=sys.stderr)
             return 2

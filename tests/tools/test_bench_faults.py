@@ -354,3 +354,10 @@ def test_summarize_counts_early_and_missed_drogues_per_class_and_method(tmp_path
     assert none_fc["early"] == 1 and none_fc["missed"] == 0
     lost = [s for s in summary if s["class"] == "baro_lost"][0]
     assert lost["missed"] == 1
+    # a later file's run replaces the earlier one of the same rocket, class, board, method and flight
+    later = tmp_path / "later.jsonl"
+    later.write_text(json.dumps(dict(lines[0], error_s=0.01, drogue_s=8.01)) + "\n")
+    assert bench.main(["--summarize", str(rows), str(later), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)["summary"]
+    none_fc = [s for s in summary if s["class"] == "none" and s["method"] == "flight-computer"][0]
+    assert none_fc["early"] == 0 and none_fc["flights"] == 1
