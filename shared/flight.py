@@ -320,13 +320,9 @@ class FlightComputer:
         if self._gap_us:
             dt_us += self._gap_us
             self._gap_us = 0
-        health = self.health
-        have = health.judge(alt_mm, accel_mmps2, have)
         now_ms = self.now_ms
-        if not self.started:
-            self.started = True
-            self.det.start(self.pad.start(alt_mm, have), 0)
-            self.ground_alt_mm = self.pad.ground_alt_mm
+        started = self.started
+        if not started:
             dt_us = 0
         else:
             total = self._us_rem + dt_us
@@ -335,8 +331,14 @@ class FlightComputer:
             self._us_rem = total % 1000
         dt_ms = dt_us // 1000
         state = self.state
-        have = health.watch(now_ms, alt_mm, accel_mmps2, have, self.launched and state <= DROGUE)
-        health.age(dt_ms, have)
+        health = self.health
+        have = health.check(now_ms, dt_ms, alt_mm, accel_mmps2, have,
+                            self.launched and state <= DROGUE)
+        if not started:
+            # the first sample: the pad calibration and the filter start from its usable readings
+            self.started = True
+            self.det.start(self.pad.start(alt_mm, have), 0)
+            self.ground_alt_mm = self.pad.ground_alt_mm
         if health.changed:
             self.events |= EV_HEALTH
         clipped = health.clipped

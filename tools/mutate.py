@@ -239,7 +239,7 @@ MUTANTS = [
      "if False:",
      ARB_TESTS + "::test_accelerometer_faults_with_a_healthy_barometer"),
     ("arb-baro-spike", HEALTH,
-     "and step > self.baro_rate_max_mmps * dt_ms // 1000 + _SPIKE_ALLOW_MM):",
+     "and step > self.baro_rate_max_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM):",
      "and False):",
      ARB_TESTS),
     ("arb-main-backup", FLIGHT,

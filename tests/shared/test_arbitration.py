@@ -315,7 +315,7 @@ def test_a_reading_held_at_the_flights_peak_is_clipped_only_when_held(held_sampl
     readings = [140000 + 1000 * k for k in range(10)] + [150000] * held_samples + [149000]
     seen = False
     for i, acc in enumerate(readings):
-        health.watch(10 * i, 100000 + 500 * i, acc, health.judge(0, acc, HAVE_BOTH), True)
+        health.check(10 * i, 10, 100000 + 500 * i, acc, HAVE_BOTH, True)
         seen = seen or health.clipped
     assert seen == clipped
     assert not health.flags & HEALTH_ACCEL_STUCK
@@ -331,7 +331,7 @@ def test_a_held_peak_far_below_the_configured_range_is_not_clipped():
     readings = [140000 + 1000 * k for k in range(10)] + [150000] * 10 + [149000]
     seen = False
     for i, acc in enumerate(readings):
-        health.watch(20 * i, 100000 + 500 * i, acc, health.judge(0, acc, HAVE_BOTH), True)
+        health.check(20 * i, 20, 100000 + 500 * i, acc, HAVE_BOTH, True)
         seen = seen or health.clipped
     assert not seen
 
