@@ -645,11 +645,14 @@ def _coast_model(mode, vel_mmps):
 def _apogee_enabled(fc, cfg, now_ms):
     """The filter's apogee is allowed (in coast: the caller's test)."""
     arb = fc.arb
+    # the accelerometer's lowest possible velocity first: it holds the apogee off through most
+    # of the coast, and then the rest of the rule is not evaluated
+    if arb.valid and arb.lower_mmps() > cfg.apogee_guard_mmps:
+        return False
     return (fc.flight_proven and fc.drogue_fired_ms < 0
             and fc.apogee_ms < 0 and now_ms >= fc.settle_until_ms
             and now_ms - fc.launch_ms >= cfg.apogee_lockout_ms
             and fc.agl_mm >= cfg.proof_climb_mm
-            and not (arb.valid and arb.lower_mmps() > cfg.apogee_guard_mmps)
             and not (fc._dead_reckoning and arb.valid
                      and arb.dead_reckoned_mmps(now_ms) > cfg.dead_reckoning_guard_mmps)
             and cfg.coast_decel_mmps2 << 4 <= -fc.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4

@@ -191,8 +191,8 @@ MUTANTS = [
      PAD_TESTS + "::test_barometer_transient_in_coast_does_not_fire_early"),
     # sensor arbitration and re-convergence (docs/DESIGN.md D16, D17)
     ("arb-apogee-guard", FLIGHT,
-     "and not (arb.valid and arb.lower_mmps() > cfg.apogee_guard_mmps)\n",
-     "\n",
+     "if arb.valid and arb.lower_mmps() > cfg.apogee_guard_mmps:",
+     "if False:",
      ARB_TESTS + "::test_transonic_static_port_error_does_not_fire_early"),
     ("arb-dead-reckoning-guard", FLIGHT,
      "and arb.dead_reckoned_mmps(now_ms) > cfg.dead_reckoning_guard_mmps)",
