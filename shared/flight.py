@@ -346,21 +346,24 @@ class FlightComputer:
         accel_read = measured_acc or clipped  # (a clipped reading: alive, at full scale)
         if clipped:
             self.errors |= ERR_ACCEL_CLIPPED
-        # the accelerometer's own interval: the time since its previous reading (0: none now)
-        accel_since_us = self._accel_age_us + dt_us
-        if accel_since_us > _ACCEL_AGE_LIMIT_US:
-            accel_since_us = _ACCEL_AGE_LIMIT_US
-        if accel_read:
-            self._accel_age_us = 0
-            # the boost timer's: at most _ACCEL_HOLD_US; its period the shorter of the last two
-            accel_interval_us = accel_since_us if accel_since_us < _ACCEL_HOLD_US else _ACCEL_HOLD_US
-            accel_period_us = self._accel_interval_us
-            if accel_period_us > accel_interval_us:
-                accel_period_us = accel_interval_us
-            self._accel_interval_us = accel_interval_us
-        else:
-            self._accel_age_us = accel_since_us
-            accel_since_us = accel_interval_us = accel_period_us = 0
+        # the accelerometer's own interval: the time since its previous reading (0: none now).
+        # The ascent's averages and timers and the integrals until proof use it; after the drogue,
+        # proven (both for good), nothing does
+        if state < DROGUE or not self.flight_proven:
+            accel_since_us = self._accel_age_us + dt_us
+            if accel_since_us > _ACCEL_AGE_LIMIT_US:
+                accel_since_us = _ACCEL_AGE_LIMIT_US
+            if accel_read:
+                self._accel_age_us = 0
+                # the boost timer's: at most _ACCEL_HOLD_US; its period the shorter of the last two
+                accel_interval_us = accel_since_us if accel_since_us < _ACCEL_HOLD_US else _ACCEL_HOLD_US
+                accel_period_us = self._accel_interval_us
+                if accel_period_us > accel_interval_us:
+                    accel_period_us = accel_interval_us
+                self._accel_interval_us = accel_interval_us
+            else:
+                self._accel_age_us = accel_since_us
+                accel_since_us = accel_interval_us = accel_period_us = 0
         kf = self.kf
         if state == PAD:
             pad = self.pad
