@@ -92,7 +92,7 @@ class Arbitration:
         self._fbias = array("i", [0] * _HISTORY_SLOTS)
         self._margin = array("i", [0] * _HISTORY_SLOTS)
         self._slots = 0  # slots filled (saturates at _HISTORY_SLOTS)
-        self._win_vel = 0  # sums over the window's slots (see add_baro): track velocities (mm/s),
+        self._win_vel = 0  # sums over the window's slots (see ``add_baro``): track velocities (mm/s),
         self._win_empty = 0  # slots without a barometric reading
         self._head = 0  # index of the newest slot
         self._slot_start_ms = 0
@@ -115,33 +115,6 @@ class Arbitration:
         self.upper_valid = False
         self.baro_consistent = True
 
-    def integrate(self, dt_ms, acc_kin_mmps2, specific_mmps2, clipped):
-        """Add one accelerometer reading (kinematic and specific force, mm/s^2) held for dt_ms."""
-        if dt_ms > _DT_LIMIT_MS:
-            dt_ms = _DT_LIMIT_MS
-        acc = acc_kin_mmps2
-        if acc > _ACC_LIMIT:
-            acc = _ACC_LIMIT
-        elif acc < -_ACC_LIMIT:
-            acc = -_ACC_LIMIT
-        size = acc if acc >= 0 else -acc
-        spec = specific_mmps2 if specific_mmps2 >= 0 else -specific_mmps2
-        if spec > size:
-            size = spec if spec < _ACC_LIMIT else _ACC_LIMIT
-        if clipped:
-            self.upper_valid = False
-        um = self._vel_um + acc * dt_ms
-        vel = self.vel_mmps + um // 1000
-        if vel > _VEL_LIMIT_MMPS:  # (a reading stuck at 100 g on the pad for an hour)
-            vel = _VEL_LIMIT_MMPS
-        elif vel < -_VEL_LIMIT_MMPS:
-            vel = -_VEL_LIMIT_MMPS
-        self.vel_mmps = vel
-        self._vel_um = um % 1000
-        um = self._margin_um + (self.bias_max_mmps2 + (self.tilt_loss_1024 * size >> 10)) * dt_ms
-        self.margin_mmps += um // 1000
-        self._margin_um = um % 1000
-
     def integrate_missing(self, dt_ms):
         """An accelerometer sample missing (dropout, a reading not used): the velocity is
         unknown by up to 1 g x dt more; the track's velocity holds."""
@@ -158,57 +131,6 @@ class Arbitration:
     def upper_mmps(self):
         """The highest vertical velocity the accelerometer allows."""
         return self.vel_mmps + self.margin_mmps
-
-    def add_baro(self, now_ms, alt_mm, fresh, filter_vel_mmps, filter_bias_mmps2):
-        """Average a barometric reading (``fresh``) into the current slot; when the slot is full,
-        record it in the history (with the track's velocity, the filter's and the margin at its
-        end: half a slot later than the readings' mean, 1 m/s at 4 g) and judge the barometer
-        against the accelerometer's bounds."""
-        if fresh:
-            if self._alt_n == 0 and self._slots == 0:
-                self._alt_ref = alt_mm
-            d = alt_mm - self._alt_ref
-            if d > _SLOT_STEP_LIMIT_MM:
-                d = _SLOT_STEP_LIMIT_MM
-            elif d < -_SLOT_STEP_LIMIT_MM:
-                d = -_SLOT_STEP_LIMIT_MM
-            self._alt_sum += d
-            self._alt_n += 1
-        if now_ms - self._slot_start_ms < _SLOT_MS:
-            return
-        head = self._head + 1
-        if head == _HISTORY_SLOTS:
-            head = 0
-        self._head = head
-        if self._alt_n:
-            alt = self._alt_ref + self._alt_sum // self._alt_n
-            self._empty[head] = 0
-        else:
-            alt = self._alt_ref  # no reading in this slot: windows over it are not judged
-            self._empty[head] = 1
-        self._alt[head] = alt
-        self._vel[head] = self.vel_mmps
-        self._t[head] = (self._slot_start_ms + now_ms) >> 1
-        self._fvel[head] = filter_vel_mmps
-        self._fbias[head] = _clamp(filter_bias_mmps2, _DR_BIAS_LIMIT)
-        self._margin[head] = self.margin_mmps
-        self._alt_ref = alt
-        self._alt_sum = self._alt_n = 0
-        self._slot_start_ms = now_ms
-        # running sums over the window's slots (the newest _WINDOW_SLOTS + 1): add the new slot,
-        # drop the one that left (re-summing the window cost 13k instructions per judgement)
-        self._win_vel += self.vel_mmps
-        self._win_empty += self._empty[head]
-        if self._slots > _WINDOW_SLOTS:
-            gone = head - _WINDOW_SLOTS - 1
-            if gone < 0:
-                gone += _HISTORY_SLOTS
-            self._win_vel -= self._vel[gone]
-            self._win_empty -= self._empty[gone]
-        if self._slots < _HISTORY_SLOTS:
-            self._slots += 1
-        if self._slots > _WINDOW_SLOTS:
-            self._judge(head)
 
     def _judge(self, head):
         oldest = head - _WINDOW_SLOTS
@@ -272,3 +194,87 @@ class Arbitration:
         plus the margin grown since."""
         return (self.anchor_filter_mmps + self.vel_mmps - self.anchor_track_mmps
                 + self.margin_mmps - self.anchor_margin_mmps)
+
+
+# The per-sample updates: module-level functions taking the arbitration (on MicroPython a method
+# call costs about twice a function call; docs/BENCHMARKS.md, "Per-sample cost").
+
+
+def integrate(arb, dt_ms, acc_kin_mmps2, specific_mmps2, clipped):
+    """Add one accelerometer reading (kinematic and specific force, mm/s^2) held for dt_ms."""
+    if dt_ms > _DT_LIMIT_MS:
+        dt_ms = _DT_LIMIT_MS
+    acc = acc_kin_mmps2
+    if acc > _ACC_LIMIT:
+        acc = _ACC_LIMIT
+    elif acc < -_ACC_LIMIT:
+        acc = -_ACC_LIMIT
+    size = acc if acc >= 0 else -acc
+    spec = specific_mmps2 if specific_mmps2 >= 0 else -specific_mmps2
+    if spec > size:
+        size = spec if spec < _ACC_LIMIT else _ACC_LIMIT
+    if clipped:
+        arb.upper_valid = False
+    um = arb._vel_um + acc * dt_ms
+    vel = arb.vel_mmps + um // 1000
+    if vel > _VEL_LIMIT_MMPS:  # (a reading stuck at 100 g on the pad for an hour)
+        vel = _VEL_LIMIT_MMPS
+    elif vel < -_VEL_LIMIT_MMPS:
+        vel = -_VEL_LIMIT_MMPS
+    arb.vel_mmps = vel
+    arb._vel_um = um % 1000
+    um = arb._margin_um + (arb.bias_max_mmps2 + (arb.tilt_loss_1024 * size >> 10)) * dt_ms
+    arb.margin_mmps += um // 1000
+    arb._margin_um = um % 1000
+
+
+def add_baro(arb, now_ms, alt_mm, fresh, filter_vel_mmps, filter_bias_mmps2):
+    """Average a barometric reading (``fresh``) into the current slot; when the slot is full,
+    record it in the history (with the track's velocity, the filter's and the margin at its
+    end: half a slot later than the readings' mean, 1 m/s at 4 g) and judge the barometer
+    against the accelerometer's bounds."""
+    if fresh:
+        if arb._alt_n == 0 and arb._slots == 0:
+            arb._alt_ref = alt_mm
+        d = alt_mm - arb._alt_ref
+        if d > _SLOT_STEP_LIMIT_MM:
+            d = _SLOT_STEP_LIMIT_MM
+        elif d < -_SLOT_STEP_LIMIT_MM:
+            d = -_SLOT_STEP_LIMIT_MM
+        arb._alt_sum += d
+        arb._alt_n += 1
+    if now_ms - arb._slot_start_ms < _SLOT_MS:
+        return
+    head = arb._head + 1
+    if head == _HISTORY_SLOTS:
+        head = 0
+    arb._head = head
+    if arb._alt_n:
+        alt = arb._alt_ref + arb._alt_sum // arb._alt_n
+        arb._empty[head] = 0
+    else:
+        alt = arb._alt_ref  # no reading in this slot: windows over it are not judged
+        arb._empty[head] = 1
+    arb._alt[head] = alt
+    arb._vel[head] = arb.vel_mmps
+    arb._t[head] = (arb._slot_start_ms + now_ms) >> 1
+    arb._fvel[head] = filter_vel_mmps
+    arb._fbias[head] = _clamp(filter_bias_mmps2, _DR_BIAS_LIMIT)
+    arb._margin[head] = arb.margin_mmps
+    arb._alt_ref = alt
+    arb._alt_sum = arb._alt_n = 0
+    arb._slot_start_ms = now_ms
+    # running sums over the window's slots (the newest _WINDOW_SLOTS + 1): add the new slot,
+    # drop the one that left (re-summing the window cost 13k instructions per judgement)
+    arb._win_vel += arb.vel_mmps
+    arb._win_empty += arb._empty[head]
+    if arb._slots > _WINDOW_SLOTS:
+        gone = head - _WINDOW_SLOTS - 1
+        if gone < 0:
+            gone += _HISTORY_SLOTS
+        arb._win_vel -= arb._vel[gone]
+        arb._win_empty -= arb._empty[gone]
+    if arb._slots < _HISTORY_SLOTS:
+        arb._slots += 1
+    if arb._slots > _WINDOW_SLOTS:
+        arb._judge(head)

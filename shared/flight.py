@@ -85,7 +85,7 @@ except ImportError:
         return x
 
 from shared.apogee import SeedRule, VelocityRule
-from shared.arbitration import Arbitration
+from shared.arbitration import Arbitration, add_baro, integrate
 from shared.attrs import make_room
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
@@ -975,14 +975,14 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         if coasting and acc_kin > -G_MMPS2 // 2 and not clipped:
             arb.integrate_missing(dt_ms)  # not drag: a shock or an ejection (see step)
         else:
-            arb.integrate(dt_ms, acc_kin, accel_mmps2, clipped)
+            integrate(arb, dt_ms, acc_kin, accel_mmps2, clipped)
     elif dt_ms * 1000 > _ACCEL_HOLD_US:
         fc._arb_ms = now_ms
         arb.integrate_missing(dt_ms)  # no usable reading for that long: unknown by 1 g x dt
     mode = 0
     if cfg.has_baro:
         kf = fc.kf
-        arb.add_baro(now_ms, alt_mm, have & HAVE_BARO, kf.vel_q4 >> 4, kf.bias_q4 >> 4)
+        add_baro(arb, now_ms, alt_mm, have & HAVE_BARO, kf.vel_q4 >> 4, kf.bias_q4 >> 4)
         if not flags & HEALTH_BARO_BAD:
             mode = MODE_BARO
     if cfg.has_accel and not flags & HEALTH_ACCEL_BAD and (valid or not fc.launched):

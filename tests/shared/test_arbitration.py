@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import shared.flight as flight_module
-from shared.arbitration import Arbitration
+from shared.arbitration import Arbitration, add_baro, integrate
 from shared.config import load_config
 from shared.detector import HAVE_BOTH
 from shared.flight import EV_HEALTH, EV_LAUNCH, EV_MODE, MODE_ACCEL, MODE_BARO
@@ -180,9 +180,9 @@ def test_track_integrates_to_the_true_velocity():
     arb = Arbitration(load_config({"accel_bias_max_mps2": 0.5, "accel_tilt_max_deg": 10}))
     arb.start(0)
     for _ in range(200):  # 2 s of 50 m/s^2, then 3 s of -g
-        arb.integrate(10, 50000, 59807, False)
+        integrate(arb, 10, 50000, 59807, False)
     for _ in range(300):
-        arb.integrate(10, -9807, 0, False)
+        integrate(arb, 10, -9807, 0, False)
     assert abs(arb.vel_mmps - (100000 - 29421)) <= 2
     # margin: 0.5 m/s^2 x 5 s + (1 / cos 10 deg - 1) (59.8 m/s^2 x 2 s + 9.8 m/s^2 x 3 s)
     expected = 2500 + (1 / np.cos(np.radians(10)) - 1) * (59807 * 2 + 9807 * 3)
@@ -242,8 +242,8 @@ def test_dead_reckoning_starts_from_the_filter_before_the_fault():
     arb.start(0)
     for k in range(40):  # 40 slots of 50 ms; a transient corrupts the filter from slot 30 on
         faulted = k >= 30
-        arb.add_baro(50 * (k + 1), 1000 * k, True, -70000 if faulted else 20000,
-                     -900 if faulted else 250)
+        add_baro(arb, 50 * (k + 1), 1000 * k, True, -70000 if faulted else 20000,
+                 -900 if faulted else 250)
     arb.set_anchor()
     assert arb.anchor_filter_mmps == 20000 and arb.anchor_bias_mmps2 == 250
     # 10 s on: the track unchanged (velocity 0), the bias estimate (the accelerometer reads
