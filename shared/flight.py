@@ -151,6 +151,10 @@ GATE_ALT_MM = const(50000)
 _LATE_COAST_MMPS = const(30000)  # below this vertical speed in coast, acceleration = -g
 GATE_ACC_MMPS2 = const(30000)
 _GATE_START_MS = const(500)
+# After burnout drag only decelerates: a kinematic acceleration above this (an axial specific force
+# above +0.5 g) is the motor's tail-off, an ejection charge, a shock or a tumbling rocket (no
+# staging). (Computed once here: on MicroPython an imported constant is a global, not folded.)
+_NOT_DRAG_MMPS2 = -G_MMPS2 // 2
 # The detector's phase (``_det_phase``): the state (0 to 6) plus one of these flags
 _PHASE_RESUMING = const(8)  # a resumed filter settling
 _PHASE_TAIL_OFF = const(16)  # within _GATE_START_MS of burnout
@@ -382,10 +386,8 @@ class FlightComputer:
             kf.set_altitude(alt_mm)
         resuming = now_ms < self.settle_until_ms
         coasting = state == FAST or state == COAST
-        if coasting and acc_kin > -G_MMPS2 // 2:
-            # after burnout drag only decelerates: an axial specific force above +0.5 g is the
-            # motor's tail-off, an ejection charge, a shock or a tumbling rocket (no staging)
-            have &= HAVE_BARO
+        if coasting and acc_kin > _NOT_DRAG_MMPS2:
+            have &= HAVE_BARO  # not drag: the reading is not used
         # the detector's configuration for the phase, set when the phase changes: the state, a
         # resumed filter settling, the first 0.5 s after burnout (the motor's tail-off is a real,
         # fast change: no gates yet)
@@ -972,7 +974,7 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         fc._arb_ms = now_ms
     elif have & HAVE_ACCEL or clipped:
         fc._arb_ms = now_ms
-        if coasting and acc_kin > -G_MMPS2 // 2 and not clipped:
+        if coasting and acc_kin > _NOT_DRAG_MMPS2 and not clipped:
             arb.integrate_missing(dt_ms)  # not drag: a shock or an ejection (see step)
         else:
             integrate(arb, dt_ms, acc_kin, accel_mmps2, clipped)
