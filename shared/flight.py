@@ -259,7 +259,9 @@ class FlightComputer:
         self.acc_dv_max_mmps = 0
         self.acc_h_mm = 0  # height integrated from it
         self.acc_clipped = False  # a clipped reading entered them: they are lower bounds
-        self.acc_meas_avg = 0  # averaged measured kinematic acceleration, mm/s^2 (apogee gate)
+        # averaged measured kinematic acceleration, mm/s^2 (apogee gate, false launch; not kept
+        # once proven and coast_measured)
+        self.acc_meas_avg = 0
         # the accelerometer itself has shown a coast (averaged at or below -coast_decel_mps2 after
         # launch): a rocket standing on the pad reads +1 g and never does; once seen, the board's
         # later shocks (ejection, a tumble) do not undo it
@@ -439,8 +441,13 @@ class FlightComputer:
                 self._good_agl_mm = agl_mm
                 self._good_ms = now_ms
         if state < DROGUE:
-            # the averages of the ascent's decisions (the apogee gate, a false launch at rest)
-            accel_ms = accel_since_us // 1000 if measured_acc else -1
+            # the averages of the ascent's decisions (the apogee gate, a false launch at rest); the
+            # measured acceleration's only while something reads it: a false launch (not proven)
+            # or the coast it shows (not yet seen); both settle for good
+            if measured_acc and not (self.flight_proven and self.coast_measured):
+                accel_ms = accel_since_us // 1000
+            else:
+                accel_ms = -1
             _update_averages(self, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms)
         if state <= BOOST:
             _update_boost(self, cfg, accel_interval_us, accel_period_us, acc_kin, have, clipped)
