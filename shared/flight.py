@@ -302,18 +302,6 @@ class FlightComputer:
         for obj in (self, config, self.det, self.kf, self.health, self.arb, self.pad):
             make_room(obj)
 
-    @property
-    def ground_fixed(self):
-        return self.pad.ground_fixed
-
-    @property
-    def cal_samples(self):
-        return self.pad.cal_samples
-
-    @property
-    def accel_clipped(self):
-        return self.health.accel_clipped
-
     def step(self, dt_us, alt_mm, accel_mmps2, have):
         """Process one sample; see the module docstring for units and outputs.
 
