@@ -136,26 +136,33 @@ class Arbitration:
         oldest = head - _WINDOW_SLOTS
         if oldest < 0:
             oldest += _HISTORY_SLOTS
-        vel_sum = self._win_vel
-        span_ms = self._t[head] - self._t[oldest]
+        t = self._t
+        t_ms = t[head]
+        span_ms = t_ms - t[oldest]
         if self._win_empty or span_ms <= 0:
             return
-        rise_mm = _clamp(self._alt[head] - self._alt[oldest], _SLOT_STEP_LIMIT_MM)
-        self.baro_rate_mmps = rise_mm * 1000 // span_ms
+        rise_mm = self._alt[head] - self._alt[oldest]
+        if rise_mm > _SLOT_STEP_LIMIT_MM:
+            rise_mm = _SLOT_STEP_LIMIT_MM
+        elif rise_mm < -_SLOT_STEP_LIMIT_MM:
+            rise_mm = -_SLOT_STEP_LIMIT_MM
+        rate = rise_mm * 1000 // span_ms
+        self.baro_rate_mmps = rate
         if not self.valid:
             self.baro_consistent = True
             return
-        diff = self.baro_rate_mmps - vel_sum // (_WINDOW_SLOTS + 1)
-        allowed = self.margin_mmps + self.tol_mmps
+        diff = rate - self._win_vel // (_WINDOW_SLOTS + 1)
+        margin = self.margin_mmps
+        allowed = margin + self.tol_mmps
         if self.anchored:
             # out of use since an anchor: the velocity is known better, from the filter's then
             diff += self.anchor_track_mmps - self.anchor_filter_mmps
-            allowed = self.margin_mmps - self.anchor_margin_mmps + self.tol_mmps
+            allowed = margin - self.anchor_margin_mmps + self.tol_mmps
         if -allowed <= diff and (diff <= allowed or not self.upper_valid):
             # (a clipped track under-reads: it bounds the velocity from below only)
             if self._agree_ms < 0:
-                self._agree_ms = self._t[head]
-            self.baro_consistent = self.baro_consistent or self._t[head] - self._agree_ms >= _READMIT_MS
+                self._agree_ms = t_ms
+            self.baro_consistent = self.baro_consistent or t_ms - self._agree_ms >= _READMIT_MS
         else:
             self._agree_ms = -1
             self.baro_consistent = False
@@ -245,36 +252,46 @@ def add_baro(arb, now_ms, alt_mm, fresh, filter_vel_mmps, filter_bias_mmps2):
         arb._alt_n += 1
     if now_ms - arb._slot_start_ms < _SLOT_MS:
         return
+    # the slot closes (every fifth sample at 100 Hz: the values used twice are read once)
     head = arb._head + 1
     if head == _HISTORY_SLOTS:
         head = 0
     arb._head = head
-    if arb._alt_n:
-        alt = arb._alt_ref + arb._alt_sum // arb._alt_n
-        arb._empty[head] = 0
-    else:
-        alt = arb._alt_ref  # no reading in this slot: windows over it are not judged
-        arb._empty[head] = 1
+    n = arb._alt_n
+    alt = arb._alt_ref
+    if n:
+        alt += arb._alt_sum // n
+    empty = 0 if n else 1  # no reading in this slot: windows over it are not judged
+    vel = arb.vel_mmps
+    if filter_bias_mmps2 > _DR_BIAS_LIMIT:
+        filter_bias_mmps2 = _DR_BIAS_LIMIT
+    elif filter_bias_mmps2 < -_DR_BIAS_LIMIT:
+        filter_bias_mmps2 = -_DR_BIAS_LIMIT
+    arb._empty[head] = empty
     arb._alt[head] = alt
-    arb._vel[head] = arb.vel_mmps
+    arb._vel[head] = vel
     arb._t[head] = (arb._slot_start_ms + now_ms) >> 1
     arb._fvel[head] = filter_vel_mmps
-    arb._fbias[head] = _clamp(filter_bias_mmps2, _DR_BIAS_LIMIT)
+    arb._fbias[head] = filter_bias_mmps2
     arb._margin[head] = arb.margin_mmps
     arb._alt_ref = alt
     arb._alt_sum = arb._alt_n = 0
     arb._slot_start_ms = now_ms
     # running sums over the window's slots (the newest _WINDOW_SLOTS + 1): add the new slot,
     # drop the one that left (re-summing the window cost 13k instructions per judgement)
-    arb._win_vel += arb.vel_mmps
-    arb._win_empty += arb._empty[head]
-    if arb._slots > _WINDOW_SLOTS:
+    win_vel = arb._win_vel + vel
+    win_empty = arb._win_empty + empty
+    slots = arb._slots
+    if slots > _WINDOW_SLOTS:
         gone = head - _WINDOW_SLOTS - 1
         if gone < 0:
             gone += _HISTORY_SLOTS
-        arb._win_vel -= arb._vel[gone]
-        arb._win_empty -= arb._empty[gone]
-    if arb._slots < _HISTORY_SLOTS:
-        arb._slots += 1
-    if arb._slots > _WINDOW_SLOTS:
+        win_vel -= arb._vel[gone]
+        win_empty -= arb._empty[gone]
+    arb._win_vel = win_vel
+    arb._win_empty = win_empty
+    if slots < _HISTORY_SLOTS:
+        slots += 1
+        arb._slots = slots
+    if slots > _WINDOW_SLOTS:
         arb._judge(head)
