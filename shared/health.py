@@ -114,37 +114,48 @@ class SensorHealth:
             clipped = True
         # over time: frozen runs, impossible steps, a peak held at full scale (in flight only,
         # where noise is certain; on the pad shared/padcal.py judges barometric jumps)
+        # (a run of identical readings that starts on this sample is not frozen: the stuck times
+        # are at least 0.1 s, so its test is skipped)
         flags = 0
-        self.baro_moved = False
-        if self.has_baro:
+        moved = False
+        has_baro = self.has_baro
+        if has_baro:
+            seen = self._baro_seen
             if have & HAVE_BARO:
                 step = alt_mm - self._baro_last
                 if step < 0:
                     step = -step
-                if in_flight and self._baro_seen:
+                if in_flight and seen:
                     since_ms = now_ms - self._baro_fresh_ms
                     if (since_ms <= _RATE_DT_MAX_MS
                             and step > self.baro_rate_max_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM):
                         have &= HAVE_ACCEL
                         self.baro_spikes += 1
-                if step or not self._baro_seen:
+                if step or not seen:
                     self._baro_run_ms = now_ms
-                    self.baro_moved = True
+                    moved = True
                 self._baro_last = alt_mm
-                self._baro_seen = True
                 self._baro_fresh_ms = now_ms
-            if in_flight and self._baro_seen and now_ms - self._baro_run_ms >= self.baro_stuck_ms:
+                if not seen:
+                    self._baro_seen = seen = True
+            if (not moved and in_flight and seen
+                    and now_ms - self._baro_run_ms >= self.baro_stuck_ms):
                 flags = HEALTH_BARO_STUCK
                 have &= HAVE_ACCEL
-        if self.has_accel:
+        self.baro_moved = moved
+        has_accel = self.has_accel
+        if has_accel:
+            seen = self._acc_seen
+            run_now = False
             if have & HAVE_ACCEL:
                 size = accel_mmps2 if accel_mmps2 >= 0 else -accel_mmps2
-                if in_flight and size > self._acc_peak:
-                    self._acc_peak = size
-                held = accel_mmps2 == self._acc_last and self._acc_seen
+                peak = self._acc_peak
+                if in_flight and size > peak:
+                    self._acc_peak = peak = size
+                held = accel_mmps2 == self._acc_last and seen
                 if not held:
                     self._acc_change_ms = now_ms
-                if (in_flight and held and size >= self._acc_peak and size > _ONE_G_MMPS2
+                if (in_flight and held and size >= peak and size > _ONE_G_MMPS2
                         and size >= self._early_clip_mmps2):
                     # held at the largest reading of the flight: the part's full scale (an
                     # unknown range, or a part that clips early: not below half its configured
@@ -154,12 +165,16 @@ class SensorHealth:
                         have &= HAVE_BARO
                         self.accel_clipped += 1
                         clipped = True
-                    self._acc_run_ms = now_ms
+                    run_now = True
                 elif not held or size < _ONE_G_MMPS2:
+                    run_now = True
+                if run_now:
                     self._acc_run_ms = now_ms
                 self._acc_last = accel_mmps2
-                self._acc_seen = True
-            if in_flight and self._acc_seen and now_ms - self._acc_run_ms >= self.accel_stuck_ms:
+                if not seen:
+                    self._acc_seen = seen = True
+            if (not run_now and in_flight and seen
+                    and now_ms - self._acc_run_ms >= self.accel_stuck_ms):
                 flags |= HEALTH_ACCEL_STUCK
                 have &= HAVE_BARO
         self.clipped = clipped
@@ -173,7 +188,7 @@ class SensorHealth:
             age += dt_ms
         self.baro_age_ms = age
         ok = False
-        if self.has_baro:
+        if has_baro:
             ok = age < lost_ms
             if not ok:
                 flags |= HEALTH_BARO_LOST
@@ -185,7 +200,7 @@ class SensorHealth:
             age += dt_ms
         self.accel_age_ms = age
         ok = False
-        if self.has_accel:
+        if has_accel:
             ok = age < lost_ms
             if not ok:
                 flags |= HEALTH_ACCEL_LOST
