@@ -132,43 +132,6 @@ class Arbitration:
         """The highest vertical velocity the accelerometer allows."""
         return self.vel_mmps + self.margin_mmps
 
-    def _judge(self, head):
-        oldest = head - _WINDOW_SLOTS
-        if oldest < 0:
-            oldest += _HISTORY_SLOTS
-        t = self._t
-        t_ms = t[head]
-        span_ms = t_ms - t[oldest]
-        if self._win_empty or span_ms <= 0:
-            return
-        rise_mm = self._alt[head] - self._alt[oldest]
-        if rise_mm > _SLOT_STEP_LIMIT_MM:
-            rise_mm = _SLOT_STEP_LIMIT_MM
-        elif rise_mm < -_SLOT_STEP_LIMIT_MM:
-            rise_mm = -_SLOT_STEP_LIMIT_MM
-        rate = rise_mm * 1000 // span_ms
-        self.baro_rate_mmps = rate
-        if not self.valid:
-            self.baro_consistent = True
-            return
-        diff = rate - self._win_vel // (_WINDOW_SLOTS + 1)
-        margin = self.margin_mmps
-        allowed = margin + self.tol_mmps
-        if self.anchored:
-            # out of use since an anchor: the velocity is known better, from the filter's then
-            diff += self.anchor_track_mmps - self.anchor_filter_mmps
-            allowed = margin - self.anchor_margin_mmps + self.tol_mmps
-        if -allowed <= diff and (diff <= allowed or not self.upper_valid):
-            # (a clipped track under-reads: it bounds the velocity from below only)
-            if self._agree_ms < 0:
-                self._agree_ms = t_ms
-            self.baro_consistent = self.baro_consistent or t_ms - self._agree_ms >= _READMIT_MS
-        else:
-            self._agree_ms = -1
-            self.baro_consistent = False
-        if self.baro_consistent:
-            self.anchored = False
-
     def set_anchor(self):
         """The barometer is no longer usable: anchor the accelerometer-only velocity at the
         oldest slot of the history (before a frozen run, a loss or a transient was detected):
@@ -294,4 +257,44 @@ def add_baro(arb, now_ms, alt_mm, fresh, filter_vel_mmps, filter_bias_mmps2):
         slots += 1
         arb._slots = slots
     if slots > _WINDOW_SLOTS:
-        arb._judge(head)
+        _judge(arb, head)
+
+
+def _judge(arb, head):
+    """The barometer's climb rate over the window ending at slot ``head``, and its consistency
+    with the accelerometer's bounds (``baro_consistent``)."""
+    oldest = head - _WINDOW_SLOTS
+    if oldest < 0:
+        oldest += _HISTORY_SLOTS
+    t = arb._t
+    t_ms = t[head]
+    span_ms = t_ms - t[oldest]
+    if arb._win_empty or span_ms <= 0:
+        return
+    rise_mm = arb._alt[head] - arb._alt[oldest]
+    if rise_mm > _SLOT_STEP_LIMIT_MM:
+        rise_mm = _SLOT_STEP_LIMIT_MM
+    elif rise_mm < -_SLOT_STEP_LIMIT_MM:
+        rise_mm = -_SLOT_STEP_LIMIT_MM
+    rate = rise_mm * 1000 // span_ms
+    arb.baro_rate_mmps = rate
+    if not arb.valid:
+        arb.baro_consistent = True
+        return
+    diff = rate - arb._win_vel // (_WINDOW_SLOTS + 1)
+    margin = arb.margin_mmps
+    allowed = margin + arb.tol_mmps
+    if arb.anchored:
+        # out of use since an anchor: the velocity is known better, from the filter's then
+        diff += arb.anchor_track_mmps - arb.anchor_filter_mmps
+        allowed = margin - arb.anchor_margin_mmps + arb.tol_mmps
+    if -allowed <= diff and (diff <= allowed or not arb.upper_valid):
+        # (a clipped track under-reads: it bounds the velocity from below only)
+        if arb._agree_ms < 0:
+            arb._agree_ms = t_ms
+        arb.baro_consistent = arb.baro_consistent or t_ms - arb._agree_ms >= _READMIT_MS
+    else:
+        arb._agree_ms = -1
+        arb.baro_consistent = False
+    if arb.baro_consistent:
+        arb.anchored = False

@@ -235,7 +235,7 @@ PROFILE = (
     ("arbitration.integrate", "module:shared.flight", "integrate", 5),
     ("Arbitration.integrate_missing", "arb", "integrate_missing", 1),
     ("arbitration.add_baro", "module:shared.flight", "add_baro", 6),
-    ("Arbitration._judge", "arb", "_judge", 1),
+    ("arbitration._judge", "module:shared.arbitration", "_judge", 2),
     ("Arbitration.lower_mmps", "arb", "lower_mmps", 0),
     ("Arbitration.start", "arb", "start", 1),
     ("Detector.step", "det", "step", 5),

@@ -13,6 +13,7 @@ tells users (nominal apogee + 3 s).
 import numpy as np
 import pytest
 
+import shared.arbitration as arbitration_module
 import shared.flight as flight_module
 from shared.arbitration import Arbitration, add_baro, integrate
 from shared.config import load_config
@@ -206,7 +207,7 @@ NEAR_APOGEE_TRANSIENT = Faults(transient_at_s=16.5, transient_m=-300, transient_
 
 
 @pytest.mark.parametrize("removed,fl_args,early_without", [
-    # the barometer's climb rate against the accelerometer's bounds (Arbitration._judge)
+    # the barometer's climb rate against the accelerometer's bounds (arbitration._judge)
     ("consistency", (10.0,), 15),
     ("consistency", "near_apogee", 0.5),
     # no apogee while the accelerometer's lower velocity bound climbs (_apogee_enabled):
@@ -225,7 +226,7 @@ def test_each_rule_is_needed(monkeypatch, removed, fl_args, early_without):
         fl = _lying_barometer(*fl_args)
     config = {"backup_drogue_s": round(fl.apogee_s + 3)}
     assert run(fl, **config).early_s <= 0.05  # with every rule
-    monkeypatch.setattr(Arbitration, "_judge", lambda self, head: None)
+    monkeypatch.setattr(arbitration_module, "_judge", lambda arb, head: None)
     if removed == "guard":
         assert run(fl, **config).early_s <= 0.05  # the guard alone holds it
         monkeypatch.setattr(Arbitration, "lower_mmps", lambda self: -10 ** 9)
