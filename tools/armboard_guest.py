@@ -502,10 +502,10 @@ def profile_fc(flight_data, config=None):
     fc = FlightComputer(load_config(config))
     objs = {"fc": fc, "health": fc.health, "pad": fc.pad, "arb": fc.arb, "det": fc.det, "kf": fc.kf,
             "rule": fc.det.rule}
-    from shared import detector, flight, kalman, padcal
+    from shared import arbitration, detector, flight, kalman, padcal
 
     modules = {"shared.flight": flight, "shared.kalman": kalman, "shared.detector": detector,
-               "shared.padcal": padcal}
+               "shared.padcal": padcal, "shared.arbitration": arbitration}
     k = len(PROFILE)
     _p_incl = array("i", bytearray(4 * k))
     _p_self = array("i", bytearray(4 * k))
