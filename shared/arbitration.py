@@ -92,7 +92,7 @@ class Arbitration:
         self._fbias = array("i", [0] * _HISTORY_SLOTS)
         self._margin = array("i", [0] * _HISTORY_SLOTS)
         self._slots = 0  # slots filled (saturates at _HISTORY_SLOTS)
-        self._win_vel = 0  # sums over the window's slots (see ``add_baro``): track velocities (mm/s),
+        self._win_vel = 0  # sums over the window's slots (see ``close_slot``): track velocities (mm/s),
         self._win_empty = 0  # slots without a barometric reading
         self._head = 0  # index of the newest slot
         self._slot_start_ms = 0
@@ -198,11 +198,9 @@ def integrate(arb, dt_ms, acc_kin_mmps2, specific_mmps2, clipped):
     arb._margin_um = um % 1000
 
 
-def add_baro(arb, now_ms, alt_mm, fresh, filter_vel_mmps, filter_bias_mmps2):
-    """Average a barometric reading (``fresh``) into the current slot; when the slot is full,
-    record it in the history (with the track's velocity, the filter's and the margin at its
-    end: half a slot later than the readings' mean, 1 m/s at 4 g) and judge the barometer
-    against the accelerometer's bounds."""
+def add_baro(arb, now_ms, alt_mm, fresh):
+    """Average a barometric reading (``fresh``) into the current slot. Returns True when the slot
+    is full: the caller then closes it (``close_slot``)."""
     if fresh:
         if arb._alt_n == 0 and arb._slots == 0:
             arb._alt_ref = alt_mm
@@ -213,9 +211,14 @@ def add_baro(arb, now_ms, alt_mm, fresh, filter_vel_mmps, filter_bias_mmps2):
             d = -_SLOT_STEP_LIMIT_MM
         arb._alt_sum += d
         arb._alt_n += 1
-    if now_ms - arb._slot_start_ms < _SLOT_MS:
-        return
-    # the slot closes (every fifth sample at 100 Hz: the values used twice are read once)
+    return now_ms - arb._slot_start_ms >= _SLOT_MS
+
+
+def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2):
+    """Record the full slot in the history (with the track's velocity, the filter's and the margin
+    at its end: half a slot later than the readings' mean, 1 m/s at 4 g) and judge the barometer
+    against the accelerometer's bounds. (Every fifth sample at 100 Hz: the values used twice are
+    read once.)"""
     head = arb._head + 1
     if head == _HISTORY_SLOTS:
         head = 0

@@ -85,7 +85,7 @@ except ImportError:
         return x
 
 from shared.apogee import SeedRule, VelocityRule
-from shared.arbitration import Arbitration, add_baro, integrate
+from shared.arbitration import Arbitration, add_baro, close_slot, integrate
 from shared.attrs import make_room
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
@@ -978,8 +978,9 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         arb.integrate_missing(dt_ms)  # no usable reading for that long: unknown by 1 g x dt
     mode = 0
     if cfg.has_baro:
-        kf = fc.kf
-        add_baro(arb, now_ms, alt_mm, have & HAVE_BARO, kf.vel_q4 >> 4, kf.bias_q4 >> 4)
+        if add_baro(arb, now_ms, alt_mm, have & HAVE_BARO):
+            kf = fc.kf
+            close_slot(arb, now_ms, kf.vel_q4 >> 4, kf.bias_q4 >> 4)
         if not flags & HEALTH_BARO_BAD:
             mode = MODE_BARO
     if cfg.has_accel and not flags & HEALTH_ACCEL_BAD and (valid or not fc.launched):

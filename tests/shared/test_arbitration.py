@@ -15,7 +15,7 @@ import pytest
 
 import shared.arbitration as arbitration_module
 import shared.flight as flight_module
-from shared.arbitration import Arbitration, add_baro, integrate
+from shared.arbitration import Arbitration, add_baro, close_slot, integrate
 from shared.config import load_config
 from shared.detector import HAVE_BOTH
 from shared.flight import EV_HEALTH, EV_LAUNCH, EV_MODE, MODE_ACCEL, MODE_BARO
@@ -243,8 +243,9 @@ def test_dead_reckoning_starts_from_the_filter_before_the_fault():
     arb.start(0)
     for k in range(40):  # 40 slots of 50 ms; a transient corrupts the filter from slot 30 on
         faulted = k >= 30
-        add_baro(arb, 50 * (k + 1), 1000 * k, True, -70000 if faulted else 20000,
-                 -900 if faulted else 250)
+        now_ms = 50 * (k + 1)
+        if add_baro(arb, now_ms, 1000 * k, True):
+            close_slot(arb, now_ms, -70000 if faulted else 20000, -900 if faulted else 250)
     arb.set_anchor()
     assert arb.anchor_filter_mmps == 20000 and arb.anchor_bias_mmps2 == 250
     # 10 s on: the track unchanged (velocity 0), the bias estimate (the accelerometer reads
