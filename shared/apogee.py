@@ -3,12 +3,15 @@
 Each rule has ``update(kf, rate_hz, enabled)``: called once per sample after the filter step;
 returns True on the one sample at which it declares apogee. ``enabled`` is the caller's lockout
 (False before burnout, before a minimum time or altitude, or through Mach): while it is False
-the rule keeps its history current but never fires.
+the rule keeps its history current but never fires. A rule whose ``history`` is False keeps none,
+and the caller may skip it while ``enabled`` is False (shared/detector.py does).
 """
 
 
 class SeedRule:
     """The seed's rule: the altitude estimate fell on two consecutive samples (x[k] < x[k-1] < x[k-2])."""
+
+    history = True  # the last two altitudes, from every sample
 
     def __init__(self):
         self.reset()
@@ -39,6 +42,8 @@ class VelocityRule:
     brings v to zero within half a period (v <= -a T / 2): firing now is then nearer the true
     crossing than firing at the next sample.
     """
+
+    history = False
 
     def __init__(self):
         self.reset()

@@ -92,7 +92,7 @@ class Arbitration:
         self._fbias = array("i", [0] * _HISTORY_SLOTS)
         self._margin = array("i", [0] * _HISTORY_SLOTS)
         self._slots = 0  # slots filled (saturates at _HISTORY_SLOTS)
-        self._win_vel = 0  # sums over the window's slots (see add_baro): track velocities (mm/s),
+        self._win_vel = 0  # sums over the window's slots (see ``close_slot``): track velocities (mm/s),
         self._win_empty = 0  # slots without a barometric reading
         self._head = 0  # index of the newest slot
         self._slot_start_ms = 0
@@ -115,33 +115,6 @@ class Arbitration:
         self.upper_valid = False
         self.baro_consistent = True
 
-    def integrate(self, dt_ms, acc_kin_mmps2, specific_mmps2, clipped):
-        """Add one accelerometer reading (kinematic and specific force, mm/s^2) held for dt_ms."""
-        if dt_ms > _DT_LIMIT_MS:
-            dt_ms = _DT_LIMIT_MS
-        acc = acc_kin_mmps2
-        if acc > _ACC_LIMIT:
-            acc = _ACC_LIMIT
-        elif acc < -_ACC_LIMIT:
-            acc = -_ACC_LIMIT
-        size = acc if acc >= 0 else -acc
-        spec = specific_mmps2 if specific_mmps2 >= 0 else -specific_mmps2
-        if spec > size:
-            size = spec if spec < _ACC_LIMIT else _ACC_LIMIT
-        if clipped:
-            self.upper_valid = False
-        um = self._vel_um + acc * dt_ms
-        vel = self.vel_mmps + um // 1000
-        if vel > _VEL_LIMIT_MMPS:  # (a reading stuck at 100 g on the pad for an hour)
-            vel = _VEL_LIMIT_MMPS
-        elif vel < -_VEL_LIMIT_MMPS:
-            vel = -_VEL_LIMIT_MMPS
-        self.vel_mmps = vel
-        self._vel_um = um % 1000
-        um = self._margin_um + (self.bias_max_mmps2 + (self.tilt_loss_1024 * size >> 10)) * dt_ms
-        self.margin_mmps += um // 1000
-        self._margin_um = um % 1000
-
     def integrate_missing(self, dt_ms):
         """An accelerometer sample missing (dropout, a reading not used): the velocity is
         unknown by up to 1 g x dt more; the track's velocity holds."""
@@ -158,87 +131,6 @@ class Arbitration:
     def upper_mmps(self):
         """The highest vertical velocity the accelerometer allows."""
         return self.vel_mmps + self.margin_mmps
-
-    def add_baro(self, now_ms, alt_mm, fresh, filter_vel_mmps, filter_bias_mmps2):
-        """Average a barometric reading (``fresh``) into the current slot; when the slot is full,
-        record it in the history (with the track's velocity, the filter's and the margin at its
-        end: half a slot later than the readings' mean, 1 m/s at 4 g) and judge the barometer
-        against the accelerometer's bounds."""
-        if fresh:
-            if self._alt_n == 0 and self._slots == 0:
-                self._alt_ref = alt_mm
-            d = alt_mm - self._alt_ref
-            if d > _SLOT_STEP_LIMIT_MM:
-                d = _SLOT_STEP_LIMIT_MM
-            elif d < -_SLOT_STEP_LIMIT_MM:
-                d = -_SLOT_STEP_LIMIT_MM
-            self._alt_sum += d
-            self._alt_n += 1
-        if now_ms - self._slot_start_ms < _SLOT_MS:
-            return
-        head = self._head + 1
-        if head == _HISTORY_SLOTS:
-            head = 0
-        self._head = head
-        if self._alt_n:
-            alt = self._alt_ref + self._alt_sum // self._alt_n
-            self._empty[head] = 0
-        else:
-            alt = self._alt_ref  # no reading in this slot: windows over it are not judged
-            self._empty[head] = 1
-        self._alt[head] = alt
-        self._vel[head] = self.vel_mmps
-        self._t[head] = (self._slot_start_ms + now_ms) >> 1
-        self._fvel[head] = filter_vel_mmps
-        self._fbias[head] = _clamp(filter_bias_mmps2, _DR_BIAS_LIMIT)
-        self._margin[head] = self.margin_mmps
-        self._alt_ref = alt
-        self._alt_sum = self._alt_n = 0
-        self._slot_start_ms = now_ms
-        # running sums over the window's slots (the newest _WINDOW_SLOTS + 1): add the new slot,
-        # drop the one that left (re-summing the window cost 13k instructions per judgement)
-        self._win_vel += self.vel_mmps
-        self._win_empty += self._empty[head]
-        if self._slots > _WINDOW_SLOTS:
-            gone = head - _WINDOW_SLOTS - 1
-            if gone < 0:
-                gone += _HISTORY_SLOTS
-            self._win_vel -= self._vel[gone]
-            self._win_empty -= self._empty[gone]
-        if self._slots < _HISTORY_SLOTS:
-            self._slots += 1
-        if self._slots > _WINDOW_SLOTS:
-            self._judge(head)
-
-    def _judge(self, head):
-        oldest = head - _WINDOW_SLOTS
-        if oldest < 0:
-            oldest += _HISTORY_SLOTS
-        vel_sum = self._win_vel
-        span_ms = self._t[head] - self._t[oldest]
-        if self._win_empty or span_ms <= 0:
-            return
-        rise_mm = _clamp(self._alt[head] - self._alt[oldest], _SLOT_STEP_LIMIT_MM)
-        self.baro_rate_mmps = rise_mm * 1000 // span_ms
-        if not self.valid:
-            self.baro_consistent = True
-            return
-        diff = self.baro_rate_mmps - vel_sum // (_WINDOW_SLOTS + 1)
-        allowed = self.margin_mmps + self.tol_mmps
-        if self.anchored:
-            # out of use since an anchor: the velocity is known better, from the filter's then
-            diff += self.anchor_track_mmps - self.anchor_filter_mmps
-            allowed = self.margin_mmps - self.anchor_margin_mmps + self.tol_mmps
-        if -allowed <= diff and (diff <= allowed or not self.upper_valid):
-            # (a clipped track under-reads: it bounds the velocity from below only)
-            if self._agree_ms < 0:
-                self._agree_ms = self._t[head]
-            self.baro_consistent = self.baro_consistent or self._t[head] - self._agree_ms >= _READMIT_MS
-        else:
-            self._agree_ms = -1
-            self.baro_consistent = False
-        if self.baro_consistent:
-            self.anchored = False
 
     def set_anchor(self):
         """The barometer is no longer usable: anchor the accelerometer-only velocity at the
@@ -272,3 +164,140 @@ class Arbitration:
         plus the margin grown since."""
         return (self.anchor_filter_mmps + self.vel_mmps - self.anchor_track_mmps
                 + self.margin_mmps - self.anchor_margin_mmps)
+
+
+# The per-sample updates: module-level functions taking the arbitration (on MicroPython a method
+# call costs about twice a function call; docs/BENCHMARKS.md, "Per-sample cost").
+
+
+def integrate(arb, dt_ms, acc_kin_mmps2, specific_mmps2, clipped):
+    """Add one accelerometer reading (kinematic and specific force, mm/s^2) held for dt_ms."""
+    if dt_ms > _DT_LIMIT_MS:
+        dt_ms = _DT_LIMIT_MS
+    acc = acc_kin_mmps2
+    if acc > _ACC_LIMIT:
+        acc = _ACC_LIMIT
+    elif acc < -_ACC_LIMIT:
+        acc = -_ACC_LIMIT
+    size = acc if acc >= 0 else -acc
+    spec = specific_mmps2 if specific_mmps2 >= 0 else -specific_mmps2
+    if spec > size:
+        size = spec if spec < _ACC_LIMIT else _ACC_LIMIT
+    if clipped:
+        arb.upper_valid = False
+    um = arb._vel_um + acc * dt_ms
+    vel = arb.vel_mmps + um // 1000
+    if vel > _VEL_LIMIT_MMPS:  # (a reading stuck at 100 g on the pad for an hour)
+        vel = _VEL_LIMIT_MMPS
+    elif vel < -_VEL_LIMIT_MMPS:
+        vel = -_VEL_LIMIT_MMPS
+    arb.vel_mmps = vel
+    arb._vel_um = um % 1000
+    um = arb._margin_um + (arb.bias_max_mmps2 + (arb.tilt_loss_1024 * size >> 10)) * dt_ms
+    arb.margin_mmps += um // 1000
+    arb._margin_um = um % 1000
+
+
+def add_baro(arb, now_ms, alt_mm, fresh):
+    """Average a barometric reading (``fresh``) into the current slot. Returns True when the slot
+    is full: the caller then closes it (``close_slot``)."""
+    if fresh:
+        if arb._alt_n == 0 and arb._slots == 0:
+            arb._alt_ref = alt_mm
+        d = alt_mm - arb._alt_ref
+        if d > _SLOT_STEP_LIMIT_MM:
+            d = _SLOT_STEP_LIMIT_MM
+        elif d < -_SLOT_STEP_LIMIT_MM:
+            d = -_SLOT_STEP_LIMIT_MM
+        arb._alt_sum += d
+        arb._alt_n += 1
+    return now_ms - arb._slot_start_ms >= _SLOT_MS
+
+
+def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2):
+    """Record the full slot in the history (with the track's velocity, the filter's and the margin
+    at its end: half a slot later than the readings' mean, 1 m/s at 4 g) and judge the barometer
+    against the accelerometer's bounds. (Every fifth sample at 100 Hz: the values used twice are
+    read once.)"""
+    head = arb._head + 1
+    if head == _HISTORY_SLOTS:
+        head = 0
+    arb._head = head
+    n = arb._alt_n
+    alt = arb._alt_ref
+    if n:
+        alt += arb._alt_sum // n
+    empty = 0 if n else 1  # no reading in this slot: windows over it are not judged
+    vel = arb.vel_mmps
+    if filter_bias_mmps2 > _DR_BIAS_LIMIT:
+        filter_bias_mmps2 = _DR_BIAS_LIMIT
+    elif filter_bias_mmps2 < -_DR_BIAS_LIMIT:
+        filter_bias_mmps2 = -_DR_BIAS_LIMIT
+    arb._empty[head] = empty
+    arb._alt[head] = alt
+    arb._vel[head] = vel
+    arb._t[head] = (arb._slot_start_ms + now_ms) >> 1
+    arb._fvel[head] = filter_vel_mmps
+    arb._fbias[head] = filter_bias_mmps2
+    arb._margin[head] = arb.margin_mmps
+    arb._alt_ref = alt
+    arb._alt_sum = arb._alt_n = 0
+    arb._slot_start_ms = now_ms
+    # running sums over the window's slots (the newest _WINDOW_SLOTS + 1): add the new slot,
+    # drop the one that left (re-summing the window cost 13k instructions per judgement)
+    win_vel = arb._win_vel + vel
+    win_empty = arb._win_empty + empty
+    slots = arb._slots
+    if slots > _WINDOW_SLOTS:
+        gone = head - _WINDOW_SLOTS - 1
+        if gone < 0:
+            gone += _HISTORY_SLOTS
+        win_vel -= arb._vel[gone]
+        win_empty -= arb._empty[gone]
+    arb._win_vel = win_vel
+    arb._win_empty = win_empty
+    if slots < _HISTORY_SLOTS:
+        slots += 1
+        arb._slots = slots
+    if slots > _WINDOW_SLOTS:
+        _judge(arb, head)
+
+
+def _judge(arb, head):
+    """The barometer's climb rate over the window ending at slot ``head``, and its consistency
+    with the accelerometer's bounds (``baro_consistent``)."""
+    oldest = head - _WINDOW_SLOTS
+    if oldest < 0:
+        oldest += _HISTORY_SLOTS
+    t = arb._t
+    t_ms = t[head]
+    span_ms = t_ms - t[oldest]
+    if arb._win_empty or span_ms <= 0:
+        return
+    rise_mm = arb._alt[head] - arb._alt[oldest]
+    if rise_mm > _SLOT_STEP_LIMIT_MM:
+        rise_mm = _SLOT_STEP_LIMIT_MM
+    elif rise_mm < -_SLOT_STEP_LIMIT_MM:
+        rise_mm = -_SLOT_STEP_LIMIT_MM
+    rate = rise_mm * 1000 // span_ms
+    arb.baro_rate_mmps = rate
+    if not arb.valid:
+        arb.baro_consistent = True
+        return
+    diff = rate - arb._win_vel // (_WINDOW_SLOTS + 1)
+    margin = arb.margin_mmps
+    allowed = margin + arb.tol_mmps
+    if arb.anchored:
+        # out of use since an anchor: the velocity is known better, from the filter's then
+        diff += arb.anchor_track_mmps - arb.anchor_filter_mmps
+        allowed = margin - arb.anchor_margin_mmps + arb.tol_mmps
+    if -allowed <= diff and (diff <= allowed or not arb.upper_valid):
+        # (a clipped track under-reads: it bounds the velocity from below only)
+        if arb._agree_ms < 0:
+            arb._agree_ms = t_ms
+        arb.baro_consistent = arb.baro_consistent or t_ms - arb._agree_ms >= _READMIT_MS
+    else:
+        arb._agree_ms = -1
+        arb.baro_consistent = False
+    if arb.baro_consistent:
+        arb.anchored = False

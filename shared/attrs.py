@@ -7,6 +7,10 @@ instance's table before it finds the class's): in a nearly full table that is mo
 The flight computer's 70 attributes sat in 73 slots; ``make_room`` grows each per-sample object's
 table by one size once it is built, leaving a quarter of it empty (docs/BENCHMARKS.md, "Per-sample
 cost on an emulated Cortex-M0"). On CPython it changes nothing.
+
+The per-sample classes have no property, descriptor or ``__setattr__``: with one, MicroPython looks
+every store to an instance's attribute up in its class first (py/objtype.c), and the step stores a
+dozen per sample (tests/shared/test_flight.py checks it).
 """
 
 # py/map.c's hash_allocation_sizes, as far as an object here reaches

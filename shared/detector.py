@@ -66,12 +66,14 @@ class Detector:
     Parameters
     ----------
     table : tuple of gain rows (``shared.gains_table.PROJECT`` or ``SEED``)
-    rule : object with ``reset()`` and ``update(kf, rate_hz, enabled) -> bool``
+    rule : object with ``reset()``, ``update(kf, rate_hz, enabled) -> bool`` and ``history``
+        (shared/apogee.py)
     """
 
     def __init__(self, table, rule):
         self.table = table
         self.rule = rule
+        self.rule_history = rule.history  # False: the rule is asked only while enabled
         self.kf = Kalman()
         self.row = table[0]
         self.fine_row = table[0]  # the table's fastest rate: samples sooner than a period step in it
@@ -213,7 +215,9 @@ class Detector:
         used[1] = 0 if have & HAVE_ACCEL else used_acc_us
         if kf.acc_q4 > self.acc_max_q4:
             kf.acc_q4 = self.acc_max_q4
-        return self.rule.update(kf, row[0], enabled)
+        if enabled or self.rule_history:
+            return self.rule.update(kf, row[0], enabled)
+        return False
 
     def _predict_irregular(self, dt_us):
         """Advance the state by an irregular ``dt_us`` (the regular period is one prediction, in

@@ -85,7 +85,7 @@ except ImportError:
         return x
 
 from shared.apogee import SeedRule, VelocityRule
-from shared.arbitration import Arbitration
+from shared.arbitration import Arbitration, add_baro, close_slot, integrate
 from shared.attrs import make_room
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
@@ -151,6 +151,10 @@ GATE_ALT_MM = const(50000)
 _LATE_COAST_MMPS = const(30000)  # below this vertical speed in coast, acceleration = -g
 GATE_ACC_MMPS2 = const(30000)
 _GATE_START_MS = const(500)
+# After burnout drag only decelerates: a kinematic acceleration above this (an axial specific force
+# above +0.5 g) is the motor's tail-off, an ejection charge, a shock or a tumbling rocket (no
+# staging). (Computed once here: on MicroPython an imported constant is a global, not folded.)
+_NOT_DRAG_MMPS2 = -G_MMPS2 // 2
 # The detector's phase (``_det_phase``): the state (0 to 6) plus one of these flags
 _PHASE_RESUMING = const(8)  # a resumed filter settling
 _PHASE_TAIL_OFF = const(16)  # within _GATE_START_MS of burnout
@@ -255,7 +259,9 @@ class FlightComputer:
         self.acc_dv_max_mmps = 0
         self.acc_h_mm = 0  # height integrated from it
         self.acc_clipped = False  # a clipped reading entered them: they are lower bounds
-        self.acc_meas_avg = 0  # averaged measured kinematic acceleration, mm/s^2 (apogee gate)
+        # averaged measured kinematic acceleration, mm/s^2 (apogee gate, false launch; not kept
+        # once proven and coast_measured)
+        self.acc_meas_avg = 0
         # the accelerometer itself has shown a coast (averaged at or below -coast_decel_mps2 after
         # launch): a rocket standing on the pad reads +1 g and never does; once seen, the board's
         # later shocks (ejection, a tumble) do not undo it
@@ -296,18 +302,6 @@ class FlightComputer:
         for obj in (self, config, self.det, self.kf, self.health, self.arb, self.pad):
             make_room(obj)
 
-    @property
-    def ground_fixed(self):
-        return self.pad.ground_fixed
-
-    @property
-    def cal_samples(self):
-        return self.pad.cal_samples
-
-    @property
-    def accel_clipped(self):
-        return self.health.accel_clipped
-
     def step(self, dt_us, alt_mm, accel_mmps2, have):
         """Process one sample; see the module docstring for units and outputs.
 
@@ -320,13 +314,9 @@ class FlightComputer:
         if self._gap_us:
             dt_us += self._gap_us
             self._gap_us = 0
-        health = self.health
-        have = health.judge(alt_mm, accel_mmps2, have)
         now_ms = self.now_ms
-        if not self.started:
-            self.started = True
-            self.det.start(self.pad.start(alt_mm, have), 0)
-            self.ground_alt_mm = self.pad.ground_alt_mm
+        started = self.started
+        if not started:
             dt_us = 0
         else:
             total = self._us_rem + dt_us
@@ -335,8 +325,14 @@ class FlightComputer:
             self._us_rem = total % 1000
         dt_ms = dt_us // 1000
         state = self.state
-        have = health.watch(now_ms, alt_mm, accel_mmps2, have, self.launched and state <= DROGUE)
-        health.age(dt_ms, have)
+        health = self.health
+        have = health.check(now_ms, dt_ms, alt_mm, accel_mmps2, have,
+                            self.launched and state <= DROGUE)
+        if not started:
+            # the first sample: the pad calibration and the filter start from its usable readings
+            self.started = True
+            self.det.start(self.pad.start(alt_mm, have), 0)
+            self.ground_alt_mm = self.pad.ground_alt_mm
         if health.changed:
             self.events |= EV_HEALTH
         clipped = health.clipped
@@ -344,21 +340,24 @@ class FlightComputer:
         accel_read = measured_acc or clipped  # (a clipped reading: alive, at full scale)
         if clipped:
             self.errors |= ERR_ACCEL_CLIPPED
-        # the accelerometer's own interval: the time since its previous reading (0: none now)
-        accel_since_us = self._accel_age_us + dt_us
-        if accel_since_us > _ACCEL_AGE_LIMIT_US:
-            accel_since_us = _ACCEL_AGE_LIMIT_US
-        if accel_read:
-            self._accel_age_us = 0
-            # the boost timer's: at most _ACCEL_HOLD_US; its period the shorter of the last two
-            accel_interval_us = accel_since_us if accel_since_us < _ACCEL_HOLD_US else _ACCEL_HOLD_US
-            accel_period_us = self._accel_interval_us
-            if accel_period_us > accel_interval_us:
-                accel_period_us = accel_interval_us
-            self._accel_interval_us = accel_interval_us
-        else:
-            self._accel_age_us = accel_since_us
-            accel_since_us = accel_interval_us = accel_period_us = 0
+        # the accelerometer's own interval: the time since its previous reading (0: none now).
+        # The ascent's averages and timers and the integrals until proof use it; after the drogue,
+        # proven (both for good), nothing does
+        if state < DROGUE or not self.flight_proven:
+            accel_since_us = self._accel_age_us + dt_us
+            if accel_since_us > _ACCEL_AGE_LIMIT_US:
+                accel_since_us = _ACCEL_AGE_LIMIT_US
+            if accel_read:
+                self._accel_age_us = 0
+                # the boost timer's: at most _ACCEL_HOLD_US; its period the shorter of the last two
+                accel_interval_us = accel_since_us if accel_since_us < _ACCEL_HOLD_US else _ACCEL_HOLD_US
+                accel_period_us = self._accel_interval_us
+                if accel_period_us > accel_interval_us:
+                    accel_period_us = accel_interval_us
+                self._accel_interval_us = accel_interval_us
+            else:
+                self._accel_age_us = accel_since_us
+                accel_since_us = accel_interval_us = accel_period_us = 0
         kf = self.kf
         if state == PAD:
             pad = self.pad
@@ -377,10 +376,8 @@ class FlightComputer:
             kf.set_altitude(alt_mm)
         resuming = now_ms < self.settle_until_ms
         coasting = state == FAST or state == COAST
-        if coasting and acc_kin > -G_MMPS2 // 2:
-            # after burnout drag only decelerates: an axial specific force above +0.5 g is the
-            # motor's tail-off, an ejection charge, a shock or a tumbling rocket (no staging)
-            have &= HAVE_BARO
+        if coasting and acc_kin > _NOT_DRAG_MMPS2:
+            have &= HAVE_BARO  # not drag: the reading is not used
         # the detector's configuration for the phase, set when the phase changes: the state, a
         # resumed filter settling, the first 0.5 s after burnout (the motor's tail-off is a real,
         # fast change: no gates yet)
@@ -439,8 +436,13 @@ class FlightComputer:
                 self._good_agl_mm = agl_mm
                 self._good_ms = now_ms
         if state < DROGUE:
-            # the averages of the ascent's decisions (the apogee gate, a false launch at rest)
-            accel_ms = accel_since_us // 1000 if measured_acc else -1
+            # the averages of the ascent's decisions (the apogee gate, a false launch at rest); the
+            # measured acceleration's only while something reads it: a false launch (not proven)
+            # or the coast it shows (not yet seen); both settle for good
+            if measured_acc and not (self.flight_proven and self.coast_measured):
+                accel_ms = accel_since_us // 1000
+            else:
+                accel_ms = -1
             _update_averages(self, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms)
         if state <= BOOST:
             _update_boost(self, cfg, accel_interval_us, accel_period_us, acc_kin, have, clipped)
@@ -650,11 +652,14 @@ def _coast_model(mode, vel_mmps):
 def _apogee_enabled(fc, cfg, now_ms):
     """The filter's apogee is allowed (in coast: the caller's test)."""
     arb = fc.arb
+    # the accelerometer's lowest possible velocity first: it holds the apogee off through most
+    # of the coast, and then the rest of the rule is not evaluated
+    if arb.valid and arb.lower_mmps() > cfg.apogee_guard_mmps:
+        return False
     return (fc.flight_proven and fc.drogue_fired_ms < 0
             and fc.apogee_ms < 0 and now_ms >= fc.settle_until_ms
             and now_ms - fc.launch_ms >= cfg.apogee_lockout_ms
             and fc.agl_mm >= cfg.proof_climb_mm
-            and not (arb.valid and arb.lower_mmps() > cfg.apogee_guard_mmps)
             and not (fc._dead_reckoning and arb.valid
                      and arb.dead_reckoned_mmps(now_ms) > cfg.dead_reckoning_guard_mmps)
             and cfg.coast_decel_mmps2 << 4 <= -fc.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
@@ -971,17 +976,18 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         fc._arb_ms = now_ms
     elif have & HAVE_ACCEL or clipped:
         fc._arb_ms = now_ms
-        if coasting and acc_kin > -G_MMPS2 // 2 and not clipped:
+        if coasting and acc_kin > _NOT_DRAG_MMPS2 and not clipped:
             arb.integrate_missing(dt_ms)  # not drag: a shock or an ejection (see step)
         else:
-            arb.integrate(dt_ms, acc_kin, accel_mmps2, clipped)
+            integrate(arb, dt_ms, acc_kin, accel_mmps2, clipped)
     elif dt_ms * 1000 > _ACCEL_HOLD_US:
         fc._arb_ms = now_ms
         arb.integrate_missing(dt_ms)  # no usable reading for that long: unknown by 1 g x dt
     mode = 0
     if cfg.has_baro:
-        kf = fc.kf
-        arb.add_baro(now_ms, alt_mm, have & HAVE_BARO, kf.vel_q4 >> 4, kf.bias_q4 >> 4)
+        if add_baro(arb, now_ms, alt_mm, have & HAVE_BARO):
+            kf = fc.kf
+            close_slot(arb, now_ms, kf.vel_q4 >> 4, kf.bias_q4 >> 4)
         if not flags & HEALTH_BARO_BAD:
             mode = MODE_BARO
     if cfg.has_accel and not flags & HEALTH_ACCEL_BAD and (valid or not fc.launched):

@@ -1,24 +1,22 @@
 """Per-sensor health, judged on every sample before the filter sees the readings.
 
-Portable and allocation-free per sample. ``SensorHealth.judge()`` takes the sample's ``have``
-mask (``shared.detector.HAVE_BARO | HAVE_ACCEL``) and returns the mask of the readings that may
-be used:
+Portable and allocation-free per sample. ``SensorHealth.check()``, once per sample, takes the
+sample's ``have`` mask (``shared.detector.HAVE_BARO | HAVE_ACCEL``) and returns the mask of the
+readings that may be used. It judges each reading alone:
 
 - a sensor the board does not have (``sensors`` in the configuration) is never used;
 - a barometric altitude at either end of the altitude table (a pressure outside 1 to 110 kPa:
   a BMP280 returning 0, a broken bus) is out of range and not used;
 - an accelerometer reading at its full scale under-reads, so the sample uses the barometer alone.
 
-``age()`` then counts how long each sensor has gone without a usable reading; one without a
-usable reading for ``sensor_lost_s`` is lost (``baro_ok`` / ``accel_ok`` False), and the proof of
-flight falls back to the other sensor's (shared/flight.py).
-
-``SensorHealth.watch()`` then judges each sensor over time (docs/DESIGN.md D16, "Sensor
-arbitration"): frozen (identical readings for ``baro_stuck_s`` in flight; for the accelerometer
-``accel_stuck_s`` while it reads more than 1 g, where noise and change are certain; a reading
-held at the largest of the flight is its full scale: clipped, not frozen), lost (``age()``), and
-single readings that are impossible (one that moved faster than ``baro_rate_max_mps`` from the
-previous reading). ``flags`` holds the HEALTH_* bits; a frozen or lost sensor's readings are not
+then each sensor over time (docs/DESIGN.md D16, "Sensor arbitration"): frozen (identical readings
+for ``baro_stuck_s`` in flight; for the accelerometer ``accel_stuck_s`` while it reads more than
+1 g, where noise and change are certain; a reading held at the largest of the flight is its full
+scale: clipped, not frozen) and single readings that are impossible (one that moved faster than
+``baro_rate_max_mps`` from the previous reading); and last counts how long each sensor has gone
+without a usable reading: one without a usable reading for ``sensor_lost_s`` is lost
+(``baro_ok`` / ``accel_ok`` False), and the proof of flight falls back to the other sensor's
+(shared/flight.py). ``flags`` holds the HEALTH_* bits; a frozen or lost sensor's readings are not
 used while the condition lasts.
 """
 
@@ -49,7 +47,7 @@ _AGE_LIMIT_MS = const(0x3FFFFFFF)  # ages saturate here (days), inside 31 bits
 _SPIKE_ALLOW_MM = const(50000)
 _RATE_DT_MAX_MS = const(200)
 _ONE_G_MMPS2 = const(9807)
-# An accelerometer reading held this long at the flight's largest is clipped (see watch): five
+# An accelerometer reading held this long at the flight's largest is clipped (see check): five
 # samples at 100 Hz, where a reading that only ties by chance (noise of a least significant bit
 # or more) changes within two or three.
 _CLIP_HOLD_MS = const(50)
@@ -72,32 +70,17 @@ class SensorHealth:
         self.accel_age_ms = 0
         self.baro_ok = config.has_baro  # the board has it and it is not lost
         self.accel_ok = config.has_accel
-        # the readings of the sensors the board has (one operation per sample in judge)
+        # the readings of the sensors the board has (one operation per sample in check)
         self._board_mask = (HAVE_BARO if config.has_baro else 0) | (HAVE_ACCEL if config.has_accel else 0)
 
-    def judge(self, alt_mm, accel_mmps2, have):
-        """The usable readings of this sample (``have`` minus what cannot be trusted)."""
-        have &= self._board_mask
-        if have & HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):
-            have &= HAVE_ACCEL  # an out-of-range pressure is not a reading
-            self.baro_out_of_range += 1
-        limit = self.accel_limit_mmps2
-        if have & HAVE_ACCEL and limit and (accel_mmps2 >= limit or accel_mmps2 <= -limit):
-            have &= HAVE_BARO  # a clipped reading under-reads: use the barometer alone
-            self.accel_clipped += 1
-            self.clipped = True
-        else:
-            self.clipped = False
-        return have
-
     def start_watch(self, config):
-        """Thresholds and state of ``watch`` (called once, from the constructor's owner)."""
+        """Thresholds and state of ``check``'s judgement over time (called once, from the
+        constructor's owner)."""
         self.baro_stuck_ms = config.baro_stuck_ms
         self.accel_stuck_ms = config.accel_stuck_ms
         self.baro_rate_max_mmps = config.baro_rate_max_mmps
         self.flags = 0
         self.changed = False  # flags changed at this sample
-        self._stuck = 0  # this sample's frozen flags (watch), completed by age
         self.baro_spikes = 0  # count of impossible barometric readings not used
         self.baro_moved = False  # this sample's barometric reading differs from the previous one
         self._baro_last = 0
@@ -110,41 +93,69 @@ class SensorHealth:
         self._acc_peak = 0  # the largest accelerometer reading in flight (mm/s^2)
         self._acc_change_ms = 0  # when the accelerometer's reading last changed
 
-    def watch(self, now_ms, alt_mm, accel_mmps2, have, in_flight):
-        """Judge each sensor over time; returns ``have`` without the readings not to be used.
-        Frozen and impossible readings are judged only ``in_flight`` (after launch), where noise
-        is certain; on the pad, shared/padcal.py judges barometric jumps."""
+    def check(self, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
+        """The usable readings of this sample: ``have`` without the readings that cannot be
+        trusted, judged alone and over time (``in_flight``: after launch); counts each sensor's
+        time without a usable reading and sets ``flags``, ``changed`` and ``clipped``.
+
+        One call per sample, the sensors written out (on MicroPython a method call costs as
+        much as a dozen arithmetic operations; docs/BENCHMARKS.md, "Per-sample cost")."""
+        # the readings alone: a sensor the board does not have, a pressure outside the table, a
+        # reading at the accelerometer's full scale
+        have &= self._board_mask
+        if have & HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):
+            have &= HAVE_ACCEL  # an out-of-range pressure is not a reading
+            self.baro_out_of_range += 1
+        limit = self.accel_limit_mmps2
+        clipped = False
+        if have & HAVE_ACCEL and limit and (accel_mmps2 >= limit or accel_mmps2 <= -limit):
+            have &= HAVE_BARO  # a clipped reading under-reads: use the barometer alone
+            self.accel_clipped += 1
+            clipped = True
+        # over time: frozen runs, impossible steps, a peak held at full scale (in flight only,
+        # where noise is certain; on the pad shared/padcal.py judges barometric jumps)
+        # (a run of identical readings that starts on this sample is not frozen: the stuck times
+        # are at least 0.1 s, so its test is skipped)
         flags = 0
-        self.baro_moved = False
-        if self.has_baro:
+        moved = False
+        has_baro = self.has_baro
+        if has_baro:
+            seen = self._baro_seen
             if have & HAVE_BARO:
                 step = alt_mm - self._baro_last
                 if step < 0:
                     step = -step
-                if in_flight and self._baro_seen:
-                    dt_ms = now_ms - self._baro_fresh_ms
-                    if (dt_ms <= _RATE_DT_MAX_MS
-                            and step > self.baro_rate_max_mmps * dt_ms // 1000 + _SPIKE_ALLOW_MM):
+                if in_flight and seen:
+                    since_ms = now_ms - self._baro_fresh_ms
+                    if (since_ms <= _RATE_DT_MAX_MS
+                            and step > self.baro_rate_max_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM):
                         have &= HAVE_ACCEL
                         self.baro_spikes += 1
-                if step or not self._baro_seen:
+                if step or not seen:
                     self._baro_run_ms = now_ms
-                    self.baro_moved = True
+                    moved = True
                 self._baro_last = alt_mm
-                self._baro_seen = True
                 self._baro_fresh_ms = now_ms
-            if in_flight and self._baro_seen and now_ms - self._baro_run_ms >= self.baro_stuck_ms:
+                if not seen:
+                    self._baro_seen = seen = True
+            if (not moved and in_flight and seen
+                    and now_ms - self._baro_run_ms >= self.baro_stuck_ms):
                 flags = HEALTH_BARO_STUCK
                 have &= HAVE_ACCEL
-        if self.has_accel:
+        self.baro_moved = moved
+        has_accel = self.has_accel
+        if has_accel:
+            seen = self._acc_seen
+            run_now = False
             if have & HAVE_ACCEL:
                 size = accel_mmps2 if accel_mmps2 >= 0 else -accel_mmps2
-                if in_flight and size > self._acc_peak:
-                    self._acc_peak = size
-                held = accel_mmps2 == self._acc_last and self._acc_seen
+                peak = self._acc_peak
+                if in_flight and size > peak:
+                    self._acc_peak = peak = size
+                held = accel_mmps2 == self._acc_last and seen
                 if not held:
                     self._acc_change_ms = now_ms
-                if (in_flight and held and size >= self._acc_peak and size > _ONE_G_MMPS2
+                if (in_flight and held and size >= peak and size > _ONE_G_MMPS2
                         and size >= self._early_clip_mmps2):
                     # held at the largest reading of the flight: the part's full scale (an
                     # unknown range, or a part that clips early: not below half its configured
@@ -153,24 +164,23 @@ class SensorHealth:
                     if now_ms - self._acc_change_ms >= _CLIP_HOLD_MS:
                         have &= HAVE_BARO
                         self.accel_clipped += 1
-                        self.clipped = True
-                    self._acc_run_ms = now_ms
+                        clipped = True
+                    run_now = True
                 elif not held or size < _ONE_G_MMPS2:
+                    run_now = True
+                if run_now:
                     self._acc_run_ms = now_ms
                 self._acc_last = accel_mmps2
-                self._acc_seen = True
-            if in_flight and self._acc_seen and now_ms - self._acc_run_ms >= self.accel_stuck_ms:
+                if not seen:
+                    self._acc_seen = seen = True
+            if (not run_now and in_flight and seen
+                    and now_ms - self._acc_run_ms >= self.accel_stuck_ms):
                 flags |= HEALTH_ACCEL_STUCK
                 have &= HAVE_BARO
-        self._stuck = flags
-        return have
-
-    def age(self, dt_ms, have):
-        """Count the time without a usable reading (``have`` as ``judge`` and ``watch`` returned
-        it: a frozen sensor's readings are not usable either), and complete ``flags``."""
-        flags = self._stuck
+        self.clipped = clipped
+        # lost: the time without a usable reading (a frozen sensor's readings are not usable
+        # either); a sensor silent for sensor_lost_s no longer proves anything
         lost_ms = self.lost_ms
-        # a sensor silent for sensor_lost_s no longer proves anything
         age = self.baro_age_ms
         if have & HAVE_BARO:
             age = 0
@@ -178,22 +188,23 @@ class SensorHealth:
             age += dt_ms
         self.baro_age_ms = age
         ok = False
-        if self.has_baro:
+        if has_baro:
             ok = age < lost_ms
             if not ok:
                 flags |= HEALTH_BARO_LOST
         self.baro_ok = ok
         age = self.accel_age_ms
-        if have & HAVE_ACCEL or self.clipped:  # clipped: alive, at full scale
+        if have & HAVE_ACCEL or clipped:  # clipped: alive, at full scale
             age = 0
         elif age < _AGE_LIMIT_MS - dt_ms:
             age += dt_ms
         self.accel_age_ms = age
         ok = False
-        if self.has_accel:
+        if has_accel:
             ok = age < lost_ms
             if not ok:
                 flags |= HEALTH_ACCEL_LOST
         self.accel_ok = ok
         self.changed = flags != self.flags
         self.flags = flags
+        return have

@@ -40,6 +40,9 @@ ALT_LIMIT_Q4 = const(0x1FFFFFFF)  # 2**29 - 1 (1/16 mm): 33.5 km
 RATE_LIMIT_Q4 = const(0x7FFFFFF)  # 2**27 - 1 (1/16 mm/s or mm/s^2): 8.4 km/s, 855 g
 _G_Q4 = const(156912)  # standard gravity, 9806.65 mm/s^2 * 16
 _INNOV_LIMIT = const(0x7FFFFFF)  # 2**27 - 1 (1/16 mm): 8.4 km, inside _mul_gain's domain
+# An innovation below this (2 m, 2 m/s^2) times a mantissa (|m| < 2**14) plus the rounding stays
+# within 31 bits: its products need no split (``_add2``)
+_SMALL_INNOV = const(0x8000)
 
 
 # MicroPython cost (docs/BENCHMARKS.md, "Per-sample cost"): a method call costs up to three times
@@ -99,29 +102,51 @@ def _add2(kf, eh, ea, rh, ra, i):
     from row ``rh``, the acceleration column from row ``ra``.
 
     Each product is ``_mul_gain``'s, written out with each innovation split once: on MicroPython
-    six calls of it would cost a quarter more than this whole function."""
-    hh = eh >> 14
-    lh = eh & 0x3FFF
-    ha = ea >> 14
-    la = ea & 0x3FFF
-    m = rh[i]
-    s = rh[i + 1]
-    alt = kf.alt_q4 + ((hh * m + ((lh * m + (1 << (s - 1))) >> 14)) >> (s - 14))
-    m = ra[i + 2]
-    s = ra[i + 3]
-    alt += (ha * m + ((la * m + (1 << (s - 1))) >> 14)) >> (s - 14)
-    m = rh[i + 4]
-    s = rh[i + 5]
-    vel = kf.vel_q4 + ((hh * m + ((lh * m + (1 << (s - 1))) >> 14)) >> (s - 14))
-    m = ra[i + 6]
-    s = ra[i + 7]
-    vel += (ha * m + ((la * m + (1 << (s - 1))) >> 14)) >> (s - 14)
-    m = rh[i + 8]
-    s = rh[i + 9]
-    acc = kf.acc_q4 + ((hh * m + ((lh * m + (1 << (s - 1))) >> 14)) >> (s - 14))
-    m = ra[i + 10]
-    s = ra[i + 11]
-    acc += (ha * m + ((la * m + (1 << (s - 1))) >> 14)) >> (s - 14)
+    six calls of it would cost a quarter more than this whole function. Small innovations (the
+    usual case: within _SMALL_INNOV) take the unsplit product round(e * m / 2**s), the same value
+    in half the operations."""
+    if -_SMALL_INNOV < eh < _SMALL_INNOV and -_SMALL_INNOV < ea < _SMALL_INNOV:
+        m = rh[i]
+        s = rh[i + 1]
+        alt = kf.alt_q4 + ((eh * m + (1 << (s - 1))) >> s)
+        m = ra[i + 2]
+        s = ra[i + 3]
+        alt += (ea * m + (1 << (s - 1))) >> s
+        m = rh[i + 4]
+        s = rh[i + 5]
+        vel = kf.vel_q4 + ((eh * m + (1 << (s - 1))) >> s)
+        m = ra[i + 6]
+        s = ra[i + 7]
+        vel += (ea * m + (1 << (s - 1))) >> s
+        m = rh[i + 8]
+        s = rh[i + 9]
+        acc = kf.acc_q4 + ((eh * m + (1 << (s - 1))) >> s)
+        m = ra[i + 10]
+        s = ra[i + 11]
+        acc += (ea * m + (1 << (s - 1))) >> s
+    else:
+        hh = eh >> 14
+        lh = eh & 0x3FFF
+        ha = ea >> 14
+        la = ea & 0x3FFF
+        m = rh[i]
+        s = rh[i + 1]
+        alt = kf.alt_q4 + ((hh * m + ((lh * m + (1 << (s - 1))) >> 14)) >> (s - 14))
+        m = ra[i + 2]
+        s = ra[i + 3]
+        alt += (ha * m + ((la * m + (1 << (s - 1))) >> 14)) >> (s - 14)
+        m = rh[i + 4]
+        s = rh[i + 5]
+        vel = kf.vel_q4 + ((hh * m + ((lh * m + (1 << (s - 1))) >> 14)) >> (s - 14))
+        m = ra[i + 6]
+        s = ra[i + 7]
+        vel += (ha * m + ((la * m + (1 << (s - 1))) >> 14)) >> (s - 14)
+        m = rh[i + 8]
+        s = rh[i + 9]
+        acc = kf.acc_q4 + ((hh * m + ((lh * m + (1 << (s - 1))) >> 14)) >> (s - 14))
+        m = ra[i + 10]
+        s = ra[i + 11]
+        acc += (ha * m + ((la * m + (1 << (s - 1))) >> 14)) >> (s - 14)
     # the state stored, clamped to its limits (written out: a call of a helper for it cost a
     # tenth of a correction on MicroPython)
     if alt > ALT_LIMIT_Q4:
@@ -145,19 +170,22 @@ def _add(kf, e, row, i, stride):
     """Add K e for one column of gains: altitude, velocity and acceleration gains at row[i],
     row[i + stride], row[i + 2 stride] (stride 2: single-sensor gains; 4: one column of the
     two-sensor gains). The products as in ``_add2``."""
-    hi = e >> 14
-    lo = e & 0x3FFF
     m = row[i]
     s = row[i + 1]
-    alt = kf.alt_q4 + ((hi * m + ((lo * m + (1 << (s - 1))) >> 14)) >> (s - 14))
-    i += stride
-    m = row[i]
-    s = row[i + 1]
-    vel = kf.vel_q4 + ((hi * m + ((lo * m + (1 << (s - 1))) >> 14)) >> (s - 14))
-    i += stride
-    m = row[i]
-    s = row[i + 1]
-    acc = kf.acc_q4 + ((hi * m + ((lo * m + (1 << (s - 1))) >> 14)) >> (s - 14))
+    m_vel = row[i + stride]
+    s_vel = row[i + stride + 1]
+    m_acc = row[i + 2 * stride]
+    s_acc = row[i + 2 * stride + 1]
+    if -_SMALL_INNOV < e < _SMALL_INNOV:
+        alt = kf.alt_q4 + ((e * m + (1 << (s - 1))) >> s)
+        vel = kf.vel_q4 + ((e * m_vel + (1 << (s_vel - 1))) >> s_vel)
+        acc = kf.acc_q4 + ((e * m_acc + (1 << (s_acc - 1))) >> s_acc)
+    else:
+        hi = e >> 14
+        lo = e & 0x3FFF
+        alt = kf.alt_q4 + ((hi * m + ((lo * m + (1 << (s - 1))) >> 14)) >> (s - 14))
+        vel = kf.vel_q4 + ((hi * m_vel + ((lo * m_vel + (1 << (s_vel - 1))) >> 14)) >> (s_vel - 14))
+        acc = kf.acc_q4 + ((hi * m_acc + ((lo * m_acc + (1 << (s_acc - 1))) >> 14)) >> (s_acc - 14))
     # the state stored, clamped to its limits (written out: a call of a helper for it cost a
     # tenth of a correction on MicroPython)
     if alt > ALT_LIMIT_Q4:

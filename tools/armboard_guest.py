@@ -227,17 +227,16 @@ PROFILE = (
     ("flight._landing_rule", "module:shared.flight", "_landing_rule", 2),
     ("flight._check_proof", "module:shared.flight", "_check_proof", 3),
     ("flight._pyro", "module:shared.flight", "_pyro", 2),
-    ("SensorHealth.judge", "health", "judge", 3),
-    ("SensorHealth.watch", "health", "watch", 5),
-    ("SensorHealth.age", "health", "age", 2),
+    ("SensorHealth.check", "health", "check", 6),
     ("PadCalibration.update", "pad", "update", 5),
     ("padcal._add_alt", "module:shared.padcal", "_add_alt", 4),
     ("PadCalibration._apply", "pad", "_apply", 4),
     ("PadCalibration.check_orientation", "pad", "check_orientation", 1),
-    ("Arbitration.integrate", "arb", "integrate", 4),
+    ("arbitration.integrate", "module:shared.flight", "integrate", 5),
     ("Arbitration.integrate_missing", "arb", "integrate_missing", 1),
-    ("Arbitration.add_baro", "arb", "add_baro", 5),
-    ("Arbitration._judge", "arb", "_judge", 1),
+    ("arbitration.add_baro", "module:shared.flight", "add_baro", 4),
+    ("arbitration.close_slot", "module:shared.flight", "close_slot", 4),
+    ("arbitration._judge", "module:shared.arbitration", "_judge", 2),
     ("Arbitration.lower_mmps", "arb", "lower_mmps", 0),
     ("Arbitration.start", "arb", "start", 1),
     ("Detector.step", "det", "step", 5),
@@ -504,10 +503,10 @@ def profile_fc(flight_data, config=None):
     fc = FlightComputer(load_config(config))
     objs = {"fc": fc, "health": fc.health, "pad": fc.pad, "arb": fc.arb, "det": fc.det, "kf": fc.kf,
             "rule": fc.det.rule}
-    from shared import detector, flight, kalman, padcal
+    from shared import arbitration, detector, flight, kalman, padcal
 
     modules = {"shared.flight": flight, "shared.kalman": kalman, "shared.detector": detector,
-               "shared.padcal": padcal}
+               "shared.padcal": padcal, "shared.arbitration": arbitration}
     k = len(PROFILE)
     _p_incl = array("i", bytearray(4 * k))
     _p_self = array("i", bytearray(4 * k))

@@ -129,12 +129,12 @@ def replay(log, config):
         notes.append(duplicates)
     main_m = config.values["main_deploy_m"]
     notes.append("main at %g m AGL" % main_m if main_m else "no main (single deployment)")
-    if fc.ground_fixed:
+    if fc.pad.ground_fixed:
         notes.append("ground reference from metadata ground_pressure_pa")
     else:
-        notes.append("ground reference from %d quiet pad samples" % fc.cal_samples)
+        notes.append("ground reference from %d quiet pad samples" % fc.pad.cal_samples)
     return ReplayResult(events, log.time_s, out["raw"], out["agl"], out["vel"], out["acc"], state,
-                        pyro_d, pyro_m, pyro_bd, pyro_bm, fc.cal_samples, fc.errors, notes)
+                        pyro_d, pyro_m, pyro_bd, pyro_bm, fc.pad.cal_samples, fc.errors, notes)
 
 
 def _detail(fc, bit):

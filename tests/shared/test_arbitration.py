@@ -13,8 +13,9 @@ tells users (nominal apogee + 3 s).
 import numpy as np
 import pytest
 
+import shared.arbitration as arbitration_module
 import shared.flight as flight_module
-from shared.arbitration import Arbitration
+from shared.arbitration import Arbitration, add_baro, close_slot, integrate
 from shared.config import load_config
 from shared.detector import HAVE_BOTH
 from shared.flight import EV_HEALTH, EV_LAUNCH, EV_MODE, MODE_ACCEL, MODE_BARO
@@ -182,9 +183,9 @@ def test_track_integrates_to_the_true_velocity():
     arb = Arbitration(load_config({"accel_bias_max_mps2": 0.5, "accel_tilt_max_deg": 10}))
     arb.start(0)
     for _ in range(200):  # 2 s of 50 m/s^2, then 3 s of -g
-        arb.integrate(10, 50000, 59807, False)
+        integrate(arb, 10, 50000, 59807, False)
     for _ in range(300):
-        arb.integrate(10, -9807, 0, False)
+        integrate(arb, 10, -9807, 0, False)
     assert abs(arb.vel_mmps - (100000 - 29421)) <= 2
     # margin: 0.5 m/s^2 x 5 s + (1 / cos 10 deg - 1) (59.8 m/s^2 x 2 s + 9.8 m/s^2 x 3 s)
     expected = 2500 + (1 / np.cos(np.radians(10)) - 1) * (59807 * 2 + 9807 * 3)
@@ -208,7 +209,7 @@ NEAR_APOGEE_TRANSIENT = Faults(transient_at_s=16.5, transient_m=-300, transient_
 
 
 @pytest.mark.parametrize("removed,fl_args,early_without", [
-    # the barometer's climb rate against the accelerometer's bounds (Arbitration._judge)
+    # the barometer's climb rate against the accelerometer's bounds (arbitration._judge)
     ("consistency", (10.0,), 15),
     ("consistency", "near_apogee", 0.5),
     # no apogee while the accelerometer's lower velocity bound climbs (_apogee_enabled):
@@ -227,7 +228,7 @@ def test_each_rule_is_needed(monkeypatch, removed, fl_args, early_without):
         fl = _lying_barometer(*fl_args)
     config = {"backup_drogue_s": round(fl.apogee_s + 3)}
     assert run(fl, **config).early_s <= 0.05  # with every rule
-    monkeypatch.setattr(Arbitration, "_judge", lambda self, head: None)
+    monkeypatch.setattr(arbitration_module, "_judge", lambda arb, head: None)
     if removed == "guard":
         assert run(fl, **config).early_s <= 0.05  # the guard alone holds it
         monkeypatch.setattr(Arbitration, "lower_mmps", lambda self: -10 ** 9)
@@ -244,8 +245,9 @@ def test_dead_reckoning_starts_from_the_filter_before_the_fault():
     arb.start(0)
     for k in range(40):  # 40 slots of 50 ms; a transient corrupts the filter from slot 30 on
         faulted = k >= 30
-        arb.add_baro(50 * (k + 1), 1000 * k, True, -70000 if faulted else 20000,
-                     -900 if faulted else 250)
+        now_ms = 50 * (k + 1)
+        if add_baro(arb, now_ms, 1000 * k, True):
+            close_slot(arb, now_ms, -70000 if faulted else 20000, -900 if faulted else 250)
     arb.set_anchor()
     assert arb.anchor_filter_mmps == 20000 and arb.anchor_bias_mmps2 == 250
     # 10 s on: the track unchanged (velocity 0), the bias estimate (the accelerometer reads
@@ -317,7 +319,7 @@ def test_a_reading_held_at_the_flights_peak_is_clipped_only_when_held(held_sampl
     readings = [140000 + 1000 * k for k in range(10)] + [150000] * held_samples + [149000]
     seen = False
     for i, acc in enumerate(readings):
-        health.watch(10 * i, 100000 + 500 * i, acc, health.judge(0, acc, HAVE_BOTH), True)
+        health.check(10 * i, 10, 100000 + 500 * i, acc, HAVE_BOTH, True)
         seen = seen or health.clipped
     assert seen == clipped
     assert not health.flags & HEALTH_ACCEL_STUCK
@@ -333,7 +335,7 @@ def test_a_held_peak_far_below_the_configured_range_is_not_clipped():
     readings = [140000 + 1000 * k for k in range(10)] + [150000] * 10 + [149000]
     seen = False
     for i, acc in enumerate(readings):
-        health.watch(20 * i, 100000 + 500 * i, acc, health.judge(0, acc, HAVE_BOTH), True)
+        health.check(20 * i, 20, 100000 + 500 * i, acc, HAVE_BOTH, True)
         seen = seen or health.clipped
     assert not seen
 

@@ -9,7 +9,7 @@ import pytest
 from shared import gains_table
 from shared.apogee import SeedRule, VelocityRule
 from shared.detector import HAVE_ACCEL, HAVE_BARO, HAVE_BOTH, Detector
-from shared.kalman import ALT_LIMIT_Q4, RATE_LIMIT_Q4, Kalman, _mul_gain
+from shared.kalman import _SMALL_INNOV, ALT_LIMIT_Q4, RATE_LIMIT_Q4, Kalman, _add, _add2, _mul_gain
 from tests.support.float_kalman import run_float
 from tools.bench_step import run_flight
 from tools.synthetic_flight import make_flight
@@ -29,6 +29,28 @@ def test_mul_gain_is_the_rounded_product_and_stays_in_31_bits():
         low = (e & 0x3FFF) * m + (1 << (s - 1))
         total = p + (low >> 14)
         assert abs(p) < SMALL_INT and abs(low) < SMALL_INT and abs(total) < SMALL_INT
+
+
+@pytest.mark.parametrize("e", [0, 1, -1, 777, -777, _SMALL_INNOV - 1, -_SMALL_INNOV + 1, _SMALL_INNOV,
+                               -_SMALL_INNOV, 2**27 - 1, -(2**27) + 1])
+def test_corrections_take_the_rounded_products_of_every_gain(e):
+    # small innovations take the product unsplit (shared/kalman.py, _SMALL_INNOV), the rest split:
+    # both exactly _mul_gain's, for every gain of every table, its intermediates inside 31 bits
+    other = 5000 if abs(e) < _SMALL_INNOV else -(2**20)
+    # an unsplit product and its rounding, |m| < 2**14 and s <= 28 (tools/gen_gains.py)
+    assert (_SMALL_INNOV - 1) * (2**14 - 1) + 2**27 < SMALL_INT
+    for row in gains_table.PROJECT + gains_table.PROJECT_LOW_NOISE:
+        for i in (1, 25, 41):
+            kf = Kalman()
+            _add2(kf, e, other, row, row, i)
+            assert (kf.alt_q4, kf.vel_q4, kf.acc_q4) == tuple(
+                _mul_gain(e, row[i + k], row[i + k + 1]) + _mul_gain(other, row[i + k + 2], row[i + k + 3])
+                for k in (0, 4, 8))
+        for i, stride in ((13, 2), (19, 2), (1, 4), (3, 4)):
+            kf = Kalman()
+            _add(kf, e, row, i, stride)
+            assert (kf.alt_q4, kf.vel_q4, kf.acc_q4) == tuple(
+                _mul_gain(e, row[i + k * stride], row[i + k * stride + 1]) for k in (0, 1, 2))
 
 
 @pytest.mark.parametrize("dt_us,prev_hz,rate,steps", [

@@ -92,6 +92,8 @@ def integer_errors(model, d_alt_m, d_vel_mps, seconds, rate_hz=100, v0_mps=150.0
 
 
 class _NoRule:
+    history = False  # (shared/apogee.py)
+
     def reset(self):
         pass
 
