@@ -229,7 +229,7 @@ PROFILE = (
     ("flight._pyro", "module:shared.flight", "_pyro", 2),
     ("SensorHealth.check", "health", "check", 6),
     ("PadCalibration.update", "pad", "update", 5),
-    ("padcal._add_alt", "module:shared.padcal", "_add_alt", 4),
+    ("padcal._add_alt", "module:shared.padcal", "_add_alt", 3),
     ("PadCalibration._apply", "pad", "_apply", 4),
     ("PadCalibration.check_orientation", "pad", "check_orientation", 1),
     ("arbitration.integrate", "module:shared.flight", "integrate", 5),
