@@ -80,6 +80,7 @@ class Arbitration:
         self.anchored = False  # an anchor is set and the barometer has not agreed since
         self.baro_consistent = True
         self.baro_rate_mmps = 0  # last windowed barometric climb rate
+        self.judge_due = False  # a window closed and its judgement deferred (see close_slot)
         self._agree_ms = 0  # when the current run of agreeing windows began (-1: none)
         # history of slots: barometric altitude mean (mm), middle time (ms), no barometric reading
         # (0/1), and at the slot's end the track's velocity, the filter's velocity and the
@@ -137,6 +138,8 @@ class Arbitration:
         oldest slot of the history (before a frozen run, a loss or a transient was detected):
         the filter's velocity then, the track's velocity and margin then, and the filter's
         estimate of the accelerometer's bias then (mm/s^2: before the fault could corrupt it)."""
+        if self.judge_due:  # it may clear ``anchored``: first, as when it is not deferred
+            judge_late(self)
         i = self._head + 1 if self._slots == _HISTORY_SLOTS else self._head - self._slots + 1
         if i >= _HISTORY_SLOTS:
             i -= _HISTORY_SLOTS
@@ -214,11 +217,11 @@ def add_baro(arb, now_ms, alt_mm, fresh):
     return now_ms - arb._slot_start_ms >= _SLOT_MS
 
 
-def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2):
+def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2, defer=False):
     """Record the full slot in the history (with the track's velocity, the filter's and the margin
     at its end: half a slot later than the readings' mean, 1 m/s at 4 g) and judge the barometer
-    against the accelerometer's bounds. (Every fifth sample at 100 Hz: the values used twice are
-    read once.)"""
+    against the accelerometer's bounds, or with ``defer`` leave the judgement to ``judge_late``
+    (``judge_due``). (Every fifth sample at 100 Hz: the values used twice are read once.)"""
     head = arb._head + 1
     if head == _HISTORY_SLOTS:
         head = 0
@@ -260,7 +263,18 @@ def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2):
         slots += 1
         arb._slots = slots
     if slots > _WINDOW_SLOTS:
-        _judge(arb, head)
+        if defer:
+            arb.judge_due = True
+        else:
+            _judge(arb, head)
+
+
+def judge_late(arb):
+    """The judgement ``close_slot`` deferred, of the newest window. It must come before the track,
+    the anchor or the history change, and before ``baro_consistent`` or ``baro_rate_mmps`` is read:
+    it then gives what it would have on the window's close."""
+    arb.judge_due = False
+    _judge(arb, arb._head)
 
 
 def _judge(arb, head):

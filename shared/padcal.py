@@ -72,13 +72,13 @@ class PadCalibration:
         self._last_jump_ms = 0
         self._ref_mm = 0  # the altitude the block sums are offsets from
         self._ref_pending = False  # no barometric reading yet: the reference is the first one
-        # sums and counts of quiet pad readings, each sensor apart: this block, the previous one,
-        # all before the first block is complete (altitude offsets from _ref_mm; accelerometer
-        # readings)
+        # sums and counts of quiet pad readings, each sensor apart: this block and the previous one
+        # (altitude offsets from _ref_mm; accelerometer readings). Before the first complete block
+        # (no quiet reading in the previous one) this block holds every quiet reading so far: a
+        # block that ends empty adds nothing, a re-base empties both
         self._blk_alt = self._blk_alt_n = self._blk_acc = self._blk_acc_n = 0
         self._blk_start_ms = 0
         self._prev_alt = self._prev_alt_n = self._prev_acc = self._prev_acc_n = 0
-        self._all_alt = self._all_alt_n = self._all_acc = self._all_acc_n = 0
         self._accel_quiet = True  # the verdict of the last accelerometer reading
         self._accel_ms = 0  # when it was taken
         self._pend_alt = self._pend_alt_n = 0  # barometric readings awaiting the next verdict
@@ -142,7 +142,6 @@ class PadCalibration:
                 d_alt = _PAD_OFFSET_LIMIT_MM
             elif d_alt < -_PAD_OFFSET_LIMIT_MM:
                 d_alt = -_PAD_OFFSET_LIMIT_MM
-        first = self._prev_alt_n + self._prev_acc_n == 0  # no complete block yet
         if have & HAVE_ACCEL:
             limit = self.launch_accel_mmps2
             acc_kin = accel_mmps2 - self.one_g_mmps2
@@ -155,25 +154,23 @@ class PadCalibration:
             # the barometric readings since the previous accelerometer reading were quiet if the
             # accelerometer readings on both sides of them are
             if quiet and self._accel_quiet and self._pend_alt_n:
-                _add_alt(self, self._pend_alt, self._pend_alt_n, first)
+                _add_alt(self, self._pend_alt, self._pend_alt_n)
             self._pend_alt = self._pend_alt_n = 0
             self._accel_quiet = quiet
             self._accel_ms = now_ms
             if not quiet:
                 return
             if baro:
-                _add_alt(self, d_alt, 1, first)
+                _add_alt(self, d_alt, 1)
             self._blk_acc += accel_mmps2
             self._blk_acc_n += 1
-            if first:
-                self._all_acc += accel_mmps2
-                self._all_acc_n += 1
         elif baro:
             if not self.has_accel or now_ms - self._accel_ms >= _ACCEL_HOLD_MS:
-                _add_alt(self, d_alt, 1, first)  # no accelerometer (lately): the barometer alone
+                _add_alt(self, d_alt, 1)  # no accelerometer (lately): the barometer alone
             elif self._accel_quiet:
                 self._pend_alt += d_alt  # quiet if the next accelerometer reading is
                 self._pend_alt_n += 1
+        first = self._prev_alt_n + self._prev_acc_n == 0  # no complete block yet
         if now_ms - self._blk_start_ms >= _CAL_BLOCK_MS:
             # two blocks (2 s) so that coarse quantisation or handling cannot make it flicker
             n = self._blk_acc_n + self._prev_acc_n
@@ -187,8 +184,8 @@ class PadCalibration:
             self._prev_acc_n = self._blk_acc_n
             self._blk_alt = self._blk_alt_n = self._blk_acc = self._blk_acc_n = 0
             self._blk_start_ms = now_ms
-        elif first:
-            self._apply(self._all_alt, self._all_alt_n, self._all_acc, self._all_acc_n)
+        elif first:  # all quiet readings so far: this block's
+            self._apply(self._blk_alt, self._blk_alt_n, self._blk_acc, self._blk_acc_n)
 
     def _rebase(self, alt_mm, kf):
         """Restart the filter and the averages at the barometric altitude ``alt_mm``."""
@@ -196,7 +193,6 @@ class PadCalibration:
         self._ref_mm = alt_mm
         self._blk_alt = self._blk_alt_n = self._blk_acc = self._blk_acc_n = 0
         self._prev_alt_n = self._prev_acc_n = 0
-        self._all_alt = self._all_alt_n = self._all_acc = self._all_acc_n = 0
         self._pend_alt = self._pend_alt_n = 0
         self._baro_ms = -1
         if not self.ground_fixed:
@@ -232,12 +228,8 @@ class PadCalibration:
                 self.cal_samples = acc_n
 
 
-def _add_alt(pad, alt_sum, n, first):
-    """Add barometric offsets to the block's sums (and to all of them before the first block is
-    complete). A module-level function: it is called on most pad samples, and on MicroPython a
-    method call costs up to three times a function call."""
+def _add_alt(pad, alt_sum, n):
+    """Add barometric offsets to the block's sums. A module-level function: it is called on most
+    pad samples, and on MicroPython a method call costs up to three times a function call."""
     pad._blk_alt += alt_sum
     pad._blk_alt_n += n
-    if first:
-        pad._all_alt += alt_sum
-        pad._all_alt_n += n

@@ -15,7 +15,7 @@ import pytest
 
 import shared.arbitration as arbitration_module
 import shared.flight as flight_module
-from shared.arbitration import Arbitration, add_baro, close_slot, integrate
+from shared.arbitration import Arbitration, add_baro, close_slot, integrate, judge_late
 from shared.config import load_config
 from shared.detector import HAVE_BOTH
 from shared.flight import EV_HEALTH, EV_LAUNCH, EV_MODE, MODE_ACCEL, MODE_BARO
@@ -253,6 +253,37 @@ def test_dead_reckoning_starts_from_the_filter_before_the_fault():
     # 10 s on: the track unchanged (velocity 0), the bias estimate (the accelerometer reads
     # 0.25 m/s^2 high) carried as -2.5 m/s
     assert arb.dead_reckoned_mmps(arb.anchor_ms + 10000) == 20000 - 2500
+
+
+
+def test_a_deferred_judgement_is_the_one_made_on_the_close():
+    # the pad and the boost leave a window's judgement to the next sample (shared/flight.py,
+    # _arbitrate): judged before the track moves on (a restart, a stop, a reading), or first thing
+    # in set_anchor, it is the one made on the close
+    rng = np.random.default_rng(15)
+    now_arb, late_arb = (Arbitration(load_config({})) for _ in range(2))
+    seen = []
+    for k in range(2000):
+        now_ms = 10 * (k + 1)
+        acc = int(rng.integers(-300000, 300000))
+        alt = int(rng.integers(-2000, 2000)) + (k // 150) % 2 * 300000
+        for arb in (now_arb, late_arb):
+            if arb.judge_due:
+                judge_late(arb)
+            if k % 23 == 0:
+                arb.start(0)
+            elif k % 501 == 7:
+                arb.stop()
+            integrate(arb, 10, acc, acc + 9807, k % 97 == 50)
+            if add_baro(arb, now_ms, alt, k % 37 != 0):
+                close_slot(arb, now_ms, acc // 4, acc // 100, arb is late_arb)
+                if k % 9 == 0:  # the barometer lost right after a window's close
+                    arb.set_anchor()
+        if not late_arb.judge_due:
+            seen.append([(a.baro_consistent, a.baro_rate_mmps, a._agree_ms, a.anchored)
+                         for a in (now_arb, late_arb)])
+    assert len(seen) > 1500 and all(s[0] == s[1] for s in seen)
+    assert {s[0][0] for s in seen} == {True, False} and {s[0][3] for s in seen} == {True, False}
 
 
 @pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH14_ROCKET])
