@@ -226,18 +226,10 @@ def user_settings(traj, main_m: float | None) -> dict:
     return out
 
 
-def run_methods(rec, pres, acc, clip, board: str, main_m: float | None, settings: dict,
-                methods=METHODS) -> dict:
-    """{method: (drogue time, main time)} on one faulted record, for a board with both sensors
-    ("both") or a barometer only ("baro", the same record without its accelerometer), configured
-    with ``settings`` (``user_settings``: the common keys, then the board's own); ``methods``: a
-    subset of METHODS."""
-    from desktop.study.altos import AltosSettings
-
-    par = rec.parameters
-    plus = G0 * (1.0 + par["accel_scale_error"]) + par["accel_bias_mps2"]
-    minus = -G0 * (1.0 + par["accel_scale_error"]) + par["accel_bias_mps2"]
-    log = flight_log(rec.time_s, pres, acc if board == "both" else None, rec.metadata)
+def board_overrides(settings: dict, board: str, main_m: float | None, clip: float | None) -> dict:
+    """The flight computer's configuration overrides for ``board``: ``settings``
+    (``user_settings``: the common keys, then the board's own), the sensors, the main altitude and
+    the accelerometer's full scale (``clip``, m/s^2) when the record is clipped."""
     overrides = {k: v for k, v in settings.items() if k not in BOARDS}
     overrides.update(settings.get(board, {}))
     overrides["sensors"] = board
@@ -245,6 +237,21 @@ def run_methods(rec, pres, acc, clip, board: str, main_m: float | None, settings
         overrides["main_deploy_m"] = main_m
     if clip is not None:
         overrides["accel_range_g"] = clip / G0
+    return overrides
+
+
+def run_methods(rec, pres, acc, clip, board: str, main_m: float | None, settings: dict,
+                methods=METHODS) -> dict:
+    """{method: (drogue time, main time)} on one faulted record, for a board with both sensors
+    ("both") or a barometer only ("baro", the same record without its accelerometer), configured
+    by ``board_overrides``; ``methods``: a subset of METHODS."""
+    from desktop.study.altos import AltosSettings
+
+    par = rec.parameters
+    plus = G0 * (1.0 + par["accel_scale_error"]) + par["accel_bias_mps2"]
+    minus = -G0 * (1.0 + par["accel_scale_error"]) + par["accel_bias_mps2"]
+    log = flight_log(rec.time_s, pres, acc if board == "both" else None, rec.metadata)
+    overrides = board_overrides(settings, board, main_m, clip)
     out = {}
     if "flight-computer" in methods:
         out["flight-computer"] = run_flight_computer(log, overrides)

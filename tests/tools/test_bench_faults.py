@@ -240,13 +240,11 @@ def test_the_only_sensor_left_keeps_its_full_weight_through_mach(supersonic, sta
     from desktop.review.replay import config_for, ground_alt_mm, readings
     from shared.flight import FlightComputer
 
-    rec, pres, acc, _clip = bench.faulted_record(
+    rec, pres, acc, clip = bench.faulted_record(
         supersonic, fault("accel_lost", phase="boost", start_s=start_s), "ms5611+adxl375", 7,
         bench.board_config(100.0))
     log = bench.flight_log(rec.time_s, pres, acc, rec.metadata)
-    settings = bench.user_settings(supersonic, MAIN_M)
-    overrides = {k: v for k, v in settings.items() if k not in bench.BOARDS}
-    overrides.update(settings.get("both", {}), sensors="both", main_deploy_m=MAIN_M)
+    overrides = bench.board_overrides(bench.user_settings(supersonic, MAIN_M), "both", MAIN_M, clip)
     fc = FlightComputer(config_for(log, overrides=overrides), ground_alt_mm=ground_alt_mm(log))
     worst_mps = 0.0
     for t, d, a, f, h in zip(log.time_s, *readings(log), strict=True):
