@@ -91,6 +91,9 @@ SCHEMA = {
     "baro_track_m": (10, 2, 100, "m",
         "apogee on the barometer alone (no accelerometer in use) needs the filter within this of the "
         "barometer (RMS over 0.16 s; AltOS's 10 m): not while it re-converges or reads a transonic lie"),
+    "baro_step_rate_mps": (20, 0, 100, "m/s",
+        "a barometer rejected by the gate for a second whose innovation then moves slower than this "
+        "stepped (a pressure offset): the filter re-takes its altitude, not its velocity (0 = off)"),
     "baro_stuck_s": (1.0, 0.2, 10, "s", "identical barometer readings for this long in flight: frozen"),
     "accel_stuck_s": (0.5, 0.1, 10, "s",
         "identical accelerometer readings for this long while above 1 g (noise expected): frozen"),
@@ -162,6 +165,7 @@ class Config:
         self.baro_consistency_mmps = int(v["baro_consistency_mps"] * 1000)
         self.dead_reckoning_guard_mmps = int(v["dead_reckoning_guard_mps"] * 1000)
         self.baro_track_sq_q4 = int(v["baro_track_m"] ** 2 * 16)  # 1/16 m^2
+        self.baro_step_rate_mmps = int(v["baro_step_rate_mps"] * 1000)
         self.baro_stuck_ms = int(v["baro_stuck_s"] * 1000)
         self.accel_stuck_ms = int(v["accel_stuck_s"] * 1000)
         self.baro_rate_max_mmps = int(v["baro_rate_max_mps"] * 1000)

@@ -98,6 +98,14 @@ class Detector:
         self.inside_us = array("i", (0, 0))  # time inside the gate since it opened (-1: closed)
         self.inside_us[0] = self.inside_us[1] = -1
         self.acc_max_q4 = RATE_LIMIT_Q4  # ceiling of the acceleration state (coast: -0.5 g)
+        # a barometric run of outliers whose innovation changes slower than this over the run's
+        # last half is a step (a pressure offset): the re-synchronisation moves the altitude
+        # state onto it instead of the gains' transient (0 = off; set by the state machine)
+        self.step_rate_mmps = 0
+        # the barometric innovation over a run's third and fourth quarters (in 16 mm: a quarter
+        # second of readings at up to 2 kHz stays in 31 bits), and how many readings each holds
+        self.run_sum_16mm = array("i", (0, 0))
+        self.run_n = array("i", (0, 0))
         self.outliers = 0  # count of rejected readings
         self.model = MODEL_PLAIN
         # set by the state machine while it follows the barometer alone (descent, a diverged or
@@ -278,13 +286,48 @@ class Detector:
             if self.inside_us[sensor] >= GATE_REARM_US:
                 self.inside_us[sensor] = -1
             return False
-        self.outlier_us[sensor] += interval_us
-        if self.outlier_us[sensor] < resync_us:
+        run_us = self.outlier_us[sensor] + interval_us
+        self.outlier_us[sensor] = run_us
+        if sensor == 0 and self.step_rate_mmps:
+            self._step_sums(e, run_us - interval_us, run_us)
+        if run_us < resync_us:
             self.outliers += 1
             return True
         self.outlier_us[sensor] = 0
         self.inside_us[sensor] = 0  # re-synchronise: open the gate
+        if sensor == 0 and self.step_rate_mmps:
+            self._resync_step()
         return False
+
+    def _step_sums(self, e, before_us, run_us):
+        """Add the barometric innovation ``e`` (mm) at ``run_us`` into a run of outliers to the
+        sums of the run's third or fourth quarter (a new run empties them)."""
+        sums = self.run_sum_16mm
+        n = self.run_n
+        if before_us == 0:
+            sums[0] = sums[1] = n[0] = n[1] = 0
+        quarter = 1 if run_us * 4 > BARO_RESYNC_US * 3 else 0 if run_us * 2 > BARO_RESYNC_US else -1
+        if quarter >= 0:
+            sums[quarter] += e >> 4
+            n[quarter] += 1
+
+    def _resync_step(self):
+        """At a barometric re-synchronisation: if the innovation held still over the run's last
+        half (the barometer's rate agreed with the filter's velocity, only its level moved), move
+        the altitude state by the fourth quarter's mean innovation and keep the velocity.
+        Altitude cannot jump while the velocity agrees: such a step is a pressure offset (airbrakes,
+        a port's transient) that the gains would otherwise turn into a velocity transient of tens
+        of m/s (a -114 m step in the late coast: the filter's velocity through zero 4.6 s early).
+        A run whose innovation moves is left to the gains (a filter that really drifted away)."""
+        n = self.run_n
+        if n[0] == 0 or n[1] == 0:
+            return
+        early = self.run_sum_16mm[0] // n[0]
+        late = self.run_sum_16mm[1] // n[1]
+        # the quarters' centres are a quarter of BARO_RESYNC_US (0.25 s) apart: 16 mm x 4 per s
+        drift_mmps = (late - early) * 64
+        if -self.step_rate_mmps <= drift_mmps <= self.step_rate_mmps:
+            self.kf.set_altitude((self.kf.alt_q4 >> 4) + late * 16)
 
     def _set_period(self, dt_us):
         """Select the sample's rate for ``dt_us``.

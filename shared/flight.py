@@ -213,6 +213,7 @@ class FlightComputer:
             table = PROJECT_LOW_NOISE if config.low_noise_baro else PROJECT
         rule = SeedRule() if config.seed_rule else VelocityRule()
         self.det = Detector(table, rule)
+        self.det.step_rate_mmps = config.baro_step_rate_mmps
         self.kf = self.det.kf
         # the bias state explains at most the error budget of the accelerometer (bias, and tilt
         # seen as a constant offset of g): a barometric lie is not an accelerometer bias

@@ -210,3 +210,42 @@ def test_readings_on_alternate_samples_correct_like_samples_with_both():
                          abs(alt_det.kf.vel_q4 - both_det.kf.vel_q4) / 16000))
     worst_m, worst_mps = np.max(diff, axis=0)
     assert worst_m < 0.25 and worst_mps < 0.15  # measured 0.20 m, 0.10 m/s
+
+
+def _run_of_outliers(step_rate_mmps, lie_mm):
+    """A filter tracking a climb at 50 m/s (both sensors, 100 Hz, 50 m gate) whose barometer
+    reads ``lie_mm(t_s)`` off from 1 s on: (altitude error mm, velocity error mm/s) per sample."""
+    det = Detector(gains_table.PROJECT, VelocityRule())
+    det.start(0)
+    det.kf.reset(0, 50000, 0)
+    det.gate_alt_mm = 50000
+    det.step_rate_mmps = step_rate_mmps
+    errors = []
+    for i in range(1, 501):
+        t_s = i / 100
+        true_mm = 50 * i * 10
+        lie = lie_mm(t_s) if t_s >= 1.0 else 0
+        det.step(10000, true_mm + lie, 0, HAVE_BOTH, False)
+        errors.append(((det.kf.alt_q4 >> 4) - true_mm - lie, (det.kf.vel_q4 >> 4) - 50000))
+    return errors
+
+
+def test_a_steady_barometric_step_moves_the_altitude_not_the_velocity():
+    # -100 m held: rejected for a second (the filter predicts meanwhile), then re-synchronised.
+    # The step moves the altitude state at once; the velocity never moves by more than noise-free
+    # rounding. Left to the gains (the rule off), the same step swings the velocity by tens of m/s.
+    stepped = _run_of_outliers(20000, lambda t_s: -100000)
+    at_resync = stepped[200]  # the 201st sample (t = 2.01 s): the first one used again
+    assert abs(at_resync[0]) < 1000
+    assert max(abs(v) for _, v in stepped) < 100
+    absorbed = _run_of_outliers(0, lambda t_s: -100000)
+    assert min(v for _, v in absorbed) < -20000
+
+
+def test_a_moving_innovation_is_left_to_the_gains():
+    # the barometer runs away at 60 m/s (a filter that drifted, or a lie that still moves): not a
+    # step, so the re-synchronisation leaves the state to the linear filter, exactly as without
+    # the rule
+    def ramp(t_s):
+        return -int(60000 * (t_s - 1.0)) - 50000
+    assert _run_of_outliers(20000, ramp) == _run_of_outliers(0, ramp)

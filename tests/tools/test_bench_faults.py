@@ -306,6 +306,17 @@ def test_baro_only_apogee_waits_for_the_filter_to_reconverge_after_a_resync(subs
     assert_not_early(subsonic, drogue)
 
 
+def test_pressure_step_held_to_apogee_moves_the_altitude_not_the_velocity(supersonic):
+    # -120 m within 0.4 s, 6 s before apogee, held to apogee (airbrakes): the Mach 1.7 boost leaves
+    # the accelerometer's worst-case margin wide enough to admit it, the gate rejects it for a
+    # second and re-synchronises. Taken through the gains, the step pulled the filter's velocity
+    # through zero 4.34 s before apogee; taken as a step (the innovation held still), at apogee.
+    start = supersonic.apogee_time_s - 6.0
+    drogue, _ = run(supersonic, fault("transient_midcoast", dh_m=-120.0, start_s=start, rise_s=0.4,
+                                      decay_s=1.0, hold_until_s=supersonic.apogee_time_s))
+    assert_within(supersonic, drogue, 0.1)
+
+
 def test_baro_only_frozen_barometer_never_fires_early(subsonic):
     drogue, _ = run(subsonic, fault("baro_frozen", phase="coast", start_s=subsonic.burnout_time_s + 2.0),
                     board="baro")
