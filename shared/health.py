@@ -125,7 +125,9 @@ class SensorHealth:
                 step = alt_mm - self._baro_last
                 if step < 0:
                     step = -step
-                if in_flight and seen:
+                # (a step within _SPIKE_ALLOW_MM is within any rate's bound: the rate's test, a
+                # multiply and a division, only for a larger one)
+                if in_flight and seen and step > _SPIKE_ALLOW_MM:
                     since_ms = now_ms - self._baro_fresh_ms
                     if (since_ms <= _RATE_DT_MAX_MS
                             and step > self.baro_rate_max_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM):
