@@ -369,7 +369,10 @@ class FlightComputer:
         have = _arbitrate(self, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped)
         mode = self.mode
         prior_vel_mmps = kf.vel_q4 >> 4
-        _set_baro_weight(kf, cfg, state, mode, prior_vel_mmps)
+        if prior_vel_mmps > cfg.mach_lockout_mmps:
+            _set_baro_weight(kf, cfg, state, mode, prior_vel_mmps)
+        else:  # (_set_baro_weight's first test: below the lockout speed, full weight)
+            kf.baro_weight_256 = 256
         if have & HAVE_BARO and self._reanchor:
             # after a reset, or the barometer back from an exclusion: its altitude, not its path
             self._reanchor = False
@@ -652,10 +655,12 @@ def _coast_model(mode, vel_mmps):
 def _apogee_enabled(fc, cfg, now_ms):
     """The filter's apogee is allowed (in coast: the caller's test)."""
     arb = fc.arb
-    # the accelerometer's lowest possible velocity first: it holds the apogee off through most
-    # of the coast, and then the rest of the rule is not evaluated
-    if arb.valid and arb.lower_mmps() > cfg.apogee_guard_mmps:
+    # the accelerometer's lowest possible velocity first (``Arbitration.lower_mmps``, written out:
+    # this runs on every coast sample): it holds the apogee off through most of the coast, and
+    # then the rest of the rule is not evaluated
+    if arb.valid and arb.vel_mmps - arb.margin_mmps > cfg.apogee_guard_mmps:
         return False
+    accel_ok = fc.health.accel_ok
     return (fc.flight_proven and fc.drogue_fired_ms < 0
             and fc.apogee_ms < 0 and now_ms >= fc.settle_until_ms
             and now_ms - fc.launch_ms >= cfg.apogee_lockout_ms
@@ -663,8 +668,8 @@ def _apogee_enabled(fc, cfg, now_ms):
             and not (fc._dead_reckoning and arb.valid
                      and arb.dead_reckoned_mmps(now_ms) > cfg.dead_reckoning_guard_mmps)
             and cfg.coast_decel_mmps2 << 4 <= -fc.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
-            and (fc.coast_measured or not fc.health.accel_ok)
-            and (fc.health.accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4))
+            and (fc.coast_measured or not accel_ok)
+            and (accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4))
 
 
 def _update_averages(fc, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms):

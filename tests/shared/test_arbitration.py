@@ -16,7 +16,7 @@ import pytest
 import shared.arbitration as arbitration_module
 import shared.flight as flight_module
 from shared.arbitration import Arbitration, add_baro, close_slot, integrate, judge_late
-from shared.config import load_config
+from shared.config import Config, load_config
 from shared.detector import HAVE_BOTH
 from shared.flight import EV_HEALTH, EV_LAUNCH, EV_MODE, MODE_ACCEL, MODE_BARO
 from shared.health import HEALTH_ACCEL_STUCK, HEALTH_BARO_LOST, HEALTH_BARO_STUCK, SensorHealth
@@ -192,6 +192,17 @@ def test_track_integrates_to_the_true_velocity():
     assert abs(arb.margin_mmps - expected) <= 0.02 * expected
 
 
+def _without_apogee_guard(monkeypatch):
+    # the accelerometer's lowest possible velocity never holds the apogee off (_apogee_enabled)
+    init = Config.__init__
+
+    def no_guard(self, values):
+        init(self, values)
+        self.apogee_guard_mmps = 10 ** 9
+
+    monkeypatch.setattr(Config, "__init__", no_guard)
+
+
 # Each rule removed must make one of the cases above fail (the mutation that the named test
 # catches; docs/DESIGN.md safety-invariants table).
 def _no_guard(self):
@@ -228,10 +239,10 @@ def test_each_rule_is_needed(monkeypatch, removed, fl_args, early_without):
         fl = _lying_barometer(*fl_args)
     config = {"backup_drogue_s": round(fl.apogee_s + 3)}
     assert run(fl, **config).early_s <= 0.05  # with every rule
-    monkeypatch.setattr(arbitration_module, "_judge", lambda arb, head: None)
+    monkeypatch.setattr(arbitration_module, "_judge", lambda *window: None)
     if removed == "guard":
         assert run(fl, **config).early_s <= 0.05  # the guard alone holds it
-        monkeypatch.setattr(Arbitration, "lower_mmps", lambda self: -10 ** 9)
+        _without_apogee_guard(monkeypatch)
     elif removed == "baro_health":
         monkeypatch.undo()
         monkeypatch.setattr(flight_module, "HEALTH_BARO_BAD", 0)
