@@ -976,12 +976,16 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
     # interval, so sensors on separate rows integrate as a row with both)
     dt_ms = now_ms - fc._arb_ms
     coasting = state == FAST or state == COAST
-    if (state == PAD and (arb.margin_mmps or not arb.valid) and cfg.has_accel
-            and not (acc_kin > cfg.launch_accel_mmps2 or clipped)):
-        arb.start(0)  # at rest: the track starts again at the first boost reading
+    # at rest on the pad: the track starts again at the first boost reading (with a usable
+    # reading, ``integrate`` restarts it as it adds the reading)
+    restart = (state == PAD and (arb.margin_mmps or not arb.valid) and cfg.has_accel
+               and not (acc_kin > cfg.launch_accel_mmps2 or clipped))
+    if restart and (flags & HEALTH_ACCEL_BAD or not have & HAVE_ACCEL):
+        arb.start(0)
+        restart = False
     if flags & HEALTH_ACCEL_BAD and arb.valid:
         arb.stop()  # its integral no longer bounds anything, for the rest of the flight
-    valid = arb.valid
+    valid = arb.valid or restart
     if not (valid and state < DROGUE):  # the track serves the ascent's decisions
         fc._arb_ms = now_ms
     elif have & HAVE_ACCEL or clipped:
@@ -989,7 +993,7 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         if coasting and acc_kin > _NOT_DRAG_MMPS2 and not clipped:
             arb.integrate_missing(dt_ms)  # not drag: a shock or an ejection (see step)
         else:
-            integrate(arb, dt_ms, acc_kin, accel_mmps2, clipped)
+            integrate(arb, dt_ms, acc_kin, accel_mmps2, clipped, restart)
     elif dt_ms * 1000 > _ACCEL_HOLD_US:
         fc._arb_ms = now_ms
         arb.integrate_missing(dt_ms)  # no usable reading for that long: unknown by 1 g x dt
