@@ -160,8 +160,9 @@ class PadCalibration:
             self._accel_ms = now_ms
             if not quiet:
                 return
-            if baro:
-                _add_alt(self, d_alt, 1)
+            if baro:  # (_add_alt written out: the usual pad sample)
+                self._blk_alt += d_alt
+                self._blk_alt_n += 1
             self._blk_acc += accel_mmps2
             self._blk_acc_n += 1
         elif baro:
@@ -177,15 +178,15 @@ class PadCalibration:
             if n:
                 self.check_orientation((self._blk_acc + self._prev_acc) // n)
             if not first:
-                self._apply(self._prev_alt, self._prev_alt_n, self._prev_acc, self._prev_acc_n)
+                _apply(self, self._prev_alt, self._prev_alt_n, self._prev_acc, self._prev_acc_n)
             self._prev_alt = self._blk_alt
             self._prev_alt_n = self._blk_alt_n
             self._prev_acc = self._blk_acc
             self._prev_acc_n = self._blk_acc_n
             self._blk_alt = self._blk_alt_n = self._blk_acc = self._blk_acc_n = 0
             self._blk_start_ms = now_ms
-        elif first:  # all quiet readings so far: this block's
-            self._apply(self._blk_alt, self._blk_alt_n, self._blk_acc, self._blk_acc_n)
+        elif first:  # all quiet readings so far: this block's (every sample of the first second)
+            _apply(self, self._blk_alt, self._blk_alt_n, self._blk_acc, self._blk_acc_n)
 
     def _rebase(self, alt_mm, kf):
         """Restart the filter and the averages at the barometric altitude ``alt_mm``."""
@@ -211,25 +212,28 @@ class PadCalibration:
         else:
             self.errors |= ERR_ORIENTATION
 
-    def _apply(self, alt_sum, alt_n, acc_sum, acc_n):
-        """Take averages as the ground references. Sums are of altitude offsets from _ref_mm
-        (metres) and of ~1 g readings over a few hundred samples: well inside 31 bits. An
-        accelerometer average outside 1 g +-50% is not used (a short pad may hold the first
-        motion): the nominal 1 g stays."""
-        if alt_n:
-            if not self.ground_fixed:
-                self.ground_alt_mm = self._ref_mm + alt_sum // alt_n
-            self.cal_samples = alt_n
-        if acc_n:
-            one_g = acc_sum // acc_n
-            if self.has_accel and _ONE_G_MIN <= one_g <= _ONE_G_MAX:
-                self.one_g_mmps2 = one_g
-            if not alt_n:
-                self.cal_samples = acc_n
+
+def _apply(pad, alt_sum, alt_n, acc_sum, acc_n):
+    """Take averages as the ground references. Sums are of altitude offsets from _ref_mm
+    (metres) and of ~1 g readings over a few hundred samples: well inside 31 bits. An
+    accelerometer average outside 1 g +-50% is not used (a short pad may hold the first
+    motion): the nominal 1 g stays. (A module-level function: in the first second it runs on
+    every pad sample.)"""
+    if alt_n:
+        if not pad.ground_fixed:
+            pad.ground_alt_mm = pad._ref_mm + alt_sum // alt_n
+        pad.cal_samples = alt_n
+    if acc_n:
+        one_g = acc_sum // acc_n
+        if pad.has_accel and _ONE_G_MIN <= one_g <= _ONE_G_MAX:
+            pad.one_g_mmps2 = one_g
+        if not alt_n:
+            pad.cal_samples = acc_n
 
 
 def _add_alt(pad, alt_sum, n):
-    """Add barometric offsets to the block's sums. A module-level function: it is called on most
-    pad samples, and on MicroPython a method call costs up to three times a function call."""
+    """Add barometric offsets to the block's sums (readings that waited for the next
+    accelerometer verdict, or without an accelerometer). A module-level function: on MicroPython
+    a method call costs up to three times a function call."""
     pad._blk_alt += alt_sum
     pad._blk_alt_n += n
