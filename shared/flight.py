@@ -89,7 +89,7 @@ from shared.arbitration import Arbitration, add_baro, close_slot, integrate, jud
 from shared.attrs import make_room
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
-from shared.health import HEALTH_ACCEL_BAD, HEALTH_BARO_BAD, SensorHealth
+from shared.health import HEALTH_ACCEL_BAD, HEALTH_BARO_BAD, SensorHealth, check_health
 from shared.kalman import RATE_LIMIT_Q4
 from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
     ERR_BARO_ERRATIC,
@@ -98,6 +98,7 @@ from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
     PAD_BARO_JUMP_MM,
     PAD_ERRORS,
     PadCalibration,
+    update_pad,
 )
 from shared.physics import G_MMPS2
 
@@ -326,7 +327,7 @@ class FlightComputer:
         dt_ms = dt_us // 1000
         state = self.state
         health = self.health
-        have = health.check(now_ms, dt_ms, alt_mm, accel_mmps2, have,
+        have = check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have,
                             self.launched and state <= DROGUE)
         if not started:
             # the first sample: the pad calibration and the filter start from its usable readings
@@ -361,7 +362,7 @@ class FlightComputer:
         kf = self.kf
         if state == PAD:
             pad = self.pad
-            pad.update(now_ms, alt_mm, accel_mmps2, have, kf)
+            update_pad(pad, now_ms, alt_mm, accel_mmps2, have, kf)
             self.errors = (self.errors & ~PAD_ERRORS) | pad.errors
             self.ground_alt_mm = pad.ground_alt_mm
             self.one_g_mmps2 = pad.one_g_mmps2

@@ -19,7 +19,13 @@ from shared.arbitration import Arbitration, add_baro, close_slot, integrate, jud
 from shared.config import Config, load_config
 from shared.detector import HAVE_BOTH
 from shared.flight import EV_HEALTH, EV_LAUNCH, EV_MODE, MODE_ACCEL, MODE_BARO
-from shared.health import HEALTH_ACCEL_STUCK, HEALTH_BARO_LOST, HEALTH_BARO_STUCK, SensorHealth
+from shared.health import (
+    HEALTH_ACCEL_STUCK,
+    HEALTH_BARO_LOST,
+    HEALTH_BARO_STUCK,
+    SensorHealth,
+    check_health,
+)
 from tests.support.fault_flight import MACH_ROCKET, SUBSONIC_ROCKET, Faults, Rocket, fly, run
 
 MACH14_ROCKET = Rocket(thrust_n=480.0, burn_s=1.8, prop_kg=0.3)  # about Mach 1.65
@@ -361,7 +367,7 @@ def test_a_reading_held_at_the_flights_peak_is_clipped_only_when_held(held_sampl
     readings = [140000 + 1000 * k for k in range(10)] + [150000] * held_samples + [149000]
     seen = False
     for i, acc in enumerate(readings):
-        health.check(10 * i, 10, 100000 + 500 * i, acc, HAVE_BOTH, True)
+        check_health(health, 10 * i, 10, 100000 + 500 * i, acc, HAVE_BOTH, True)
         seen = seen or health.clipped
     assert seen == clipped
     assert not health.flags & HEALTH_ACCEL_STUCK
@@ -377,7 +383,7 @@ def test_a_held_peak_far_below_the_configured_range_is_not_clipped():
     readings = [140000 + 1000 * k for k in range(10)] + [150000] * 10 + [149000]
     seen = False
     for i, acc in enumerate(readings):
-        health.check(20 * i, 20, 100000 + 500 * i, acc, HAVE_BOTH, True)
+        check_health(health, 20 * i, 20, 100000 + 500 * i, acc, HAVE_BOTH, True)
         seen = seen or health.clipped
     assert not seen
 
