@@ -165,10 +165,13 @@ def update_pad(pad, now_ms, alt_mm, accel_mmps2, have, kf):
             and kf.vel_q4 >> 4 > _QUIET_SPEED_MMPS
             and pad._baro_alt_mm - pad.ground_alt_mm > _QUIET_CLIMB_MM)
         # the barometric readings since the previous accelerometer reading were quiet if the
-        # accelerometer readings on both sides of them are
-        if quiet and pad._accel_quiet and pad._pend_alt_n:
-            _add_alt(pad, pad._pend_alt, pad._pend_alt_n)
-        pad._pend_alt = pad._pend_alt_n = 0
+        # accelerometer readings on both sides of them are (none on the usual sample: the
+        # pending sums are then empty already)
+        pend_n = pad._pend_alt_n
+        if pend_n:
+            if quiet and pad._accel_quiet:
+                _add_alt(pad, pad._pend_alt, pend_n)
+            pad._pend_alt = pad._pend_alt_n = 0
         pad._accel_quiet = quiet
         pad._accel_ms = now_ms
         if not quiet:
