@@ -216,7 +216,7 @@ def add_baro(arb, now_ms, alt_mm, fresh):
     """Average a barometric reading (``fresh``) into the current slot. Returns True when the slot
     is full: the caller then closes it (``close_slot``)."""
     if fresh:
-        if arb._alt_n == 0 and arb._slots == 0:
+        if arb._slots == 0 and arb._alt_n == 0:  # the first reading (the history's test first)
             arb._alt_ref = alt_mm
         d = alt_mm - arb._alt_ref
         if d > _SLOT_STEP_LIMIT_MM:

@@ -398,11 +398,19 @@ class FlightComputer:
             # under a parachute the orientation is unknown; a resumed filter follows the
             # barometer alone (see restore_state)
             have &= HAVE_BARO
-        # after a reset the plain model: the saved velocity may be old, the filter re-learns it
-        if state == COAST and not resuming:
-            det.model = _coast_model(mode, prior_vel_mmps)
-        else:
+        # the correction model (tools/gen_gains.py explains the physics and the numbers; written
+        # out: every coast sample). In coast the accelerometer's bias estimated, and below
+        # _LATE_COAST_MMPS the acceleration taken as -g, which needs the barometer (one excluded by
+        # the arbitration leaves the bias model to correct with the accelerometer alone). Fast
+        # (above the Mach lockout) the plain model: a bias learnt from a barometer that lies
+        # through Mach would carry the lie into the velocity. After a reset the plain model: the
+        # saved velocity may be old, the filter re-learns it.
+        if state != COAST or resuming:
             det.model = MODEL_PLAIN
+        elif -_LATE_COAST_MMPS < prior_vel_mmps < _LATE_COAST_MMPS and mode & MODE_BARO:
+            det.model = MODEL_GRAVITY
+        else:
+            det.model = MODEL_BIAS
         if dt_us:
             enabled = state == COAST and _apogee_enabled(self, cfg, now_ms)
             if cfg.baro_lag_ms and have & HAVE_BARO:
@@ -638,19 +646,6 @@ def _configure_detector(det, cfg, state, resuming, settling):
     # coasting: gravity and drag, never an upward push
     det.acc_max_q4 = COAST_ACC_MAX_Q4 if state == FAST or state == COAST else RATE_LIMIT_Q4
     det.accel_off = state >= DROGUE or resuming  # (step uses the barometer alone then)
-
-
-def _coast_model(mode, vel_mmps):
-    """The correction model in coast: the accelerometer's bias estimated; below _LATE_COAST_MMPS
-    the acceleration taken as -g (tools/gen_gains.py explains the physics and the numbers). Fast
-    (above the Mach lockout) keeps the plain model: a bias learnt from a barometer that lies
-    through Mach would carry the lie into the velocity.
-
-    A barometer excluded by the arbitration (``_arbitrate``) leaves the bias model to correct
-    with the accelerometer alone; the late-coast model needs the barometer."""
-    if -_LATE_COAST_MMPS < vel_mmps < _LATE_COAST_MMPS and mode & MODE_BARO:
-        return MODEL_GRAVITY
-    return MODEL_BIAS
 
 
 def _apogee_enabled(fc, cfg, now_ms):

@@ -214,7 +214,6 @@ PROFILE = (
     ("flight._arbitrate", "module:shared.flight", "_arbitrate", 8),
     ("flight._set_baro_weight", "module:shared.flight", "_set_baro_weight", 5),
     ("flight._configure_detector", "module:shared.flight", "_configure_detector", 5),
-    ("flight._coast_model", "module:shared.flight", "_coast_model", 2),
     ("flight._apogee_enabled", "module:shared.flight", "_apogee_enabled", 3),
     ("flight._accel_only_apogee", "module:shared.flight", "_accel_only_apogee", 1),
     ("flight._update_averages", "module:shared.flight", "_update_averages", 9),
