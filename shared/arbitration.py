@@ -82,19 +82,20 @@ class Arbitration:
         self.baro_rate_mmps = 0  # last windowed barometric climb rate
         self.judge_due = False  # a window closed and its judgement deferred (see close_slot)
         self._agree_ms = 0  # when the current run of agreeing windows began (-1: none)
-        # history of slots: barometric altitude mean (mm), middle time (ms), no barometric reading
-        # (0/1), and at the slot's end the track's velocity, the filter's velocity and the
-        # track's margin (mm/s), and the filter's accelerometer bias (mm/s^2)
+        # history of slots: barometric altitude mean (mm), middle time (ms), and at the slot's end
+        # the track's velocity, the filter's velocity and the track's margin (mm/s), and the
+        # filter's accelerometer bias (mm/s^2)
         self._alt = array("i", [0] * _HISTORY_SLOTS)
         self._vel = array("i", [0] * _HISTORY_SLOTS)
         self._t = array("i", [0] * _HISTORY_SLOTS)
-        self._empty = array("b", [0] * _HISTORY_SLOTS)
         self._fvel = array("i", [0] * _HISTORY_SLOTS)
         self._fbias = array("i", [0] * _HISTORY_SLOTS)
         self._margin = array("i", [0] * _HISTORY_SLOTS)
         self._slots = 0  # slots filled (saturates at _HISTORY_SLOTS)
-        self._win_vel = 0  # sums over the window's slots (see ``close_slot``): track velocities (mm/s),
-        self._win_empty = 0  # slots without a barometric reading
+        self._win_vel = 0  # sum of the track's velocities over the window's slots (mm/s)
+        # closes to come before the window holds no slot without a barometric reading (such a
+        # window is not judged)
+        self._unjudged = 0
         self._head = 0  # index of the newest slot
         self._slot_start_ms = 0
         self._alt_ref = 0  # the previous slot's mean: this slot's sums are offsets from it
@@ -173,8 +174,10 @@ class Arbitration:
 # call costs about twice a function call; docs/BENCHMARKS.md, "Per-sample cost").
 
 
-def integrate(arb, dt_ms, acc_kin_mmps2, specific_mmps2, clipped):
-    """Add one accelerometer reading (kinematic and specific force, mm/s^2) held for dt_ms."""
+def integrate(arb, dt_ms, acc_kin_mmps2, specific_mmps2, clipped, restart=False):
+    """Add one accelerometer reading (kinematic and specific force, mm/s^2) held for dt_ms; with
+    ``restart``, to a track started again (``Arbitration.start(0)``: the pad at rest, every
+    sample, without the method call and the stores that this reading overwrites)."""
     if dt_ms > _DT_LIMIT_MS:
         dt_ms = _DT_LIMIT_MS
     acc = acc_kin_mmps2
@@ -186,18 +189,26 @@ def integrate(arb, dt_ms, acc_kin_mmps2, specific_mmps2, clipped):
     spec = specific_mmps2 if specific_mmps2 >= 0 else -specific_mmps2
     if spec > size:
         size = spec if spec < _ACC_LIMIT else _ACC_LIMIT
+    if restart:
+        arb.valid = arb.upper_valid = True
+        vel = vel_um = margin = margin_um = 0
+    else:
+        vel = arb.vel_mmps
+        vel_um = arb._vel_um
+        margin = arb.margin_mmps
+        margin_um = arb._margin_um
     if clipped:
         arb.upper_valid = False
-    um = arb._vel_um + acc * dt_ms
-    vel = arb.vel_mmps + um // 1000
+    um = vel_um + acc * dt_ms
+    vel += um // 1000
     if vel > _VEL_LIMIT_MMPS:  # (a reading stuck at 100 g on the pad for an hour)
         vel = _VEL_LIMIT_MMPS
     elif vel < -_VEL_LIMIT_MMPS:
         vel = -_VEL_LIMIT_MMPS
     arb.vel_mmps = vel
     arb._vel_um = um % 1000
-    um = arb._margin_um + (arb.bias_max_mmps2 + (arb.tilt_loss_1024 * size >> 10)) * dt_ms
-    arb.margin_mmps += um // 1000
+    um = margin_um + (arb.bias_max_mmps2 + (arb.tilt_loss_1024 * size >> 10)) * dt_ms
+    arb.margin_mmps = margin + um // 1000
     arb._margin_um = um % 1000
 
 
@@ -205,7 +216,7 @@ def add_baro(arb, now_ms, alt_mm, fresh):
     """Average a barometric reading (``fresh``) into the current slot. Returns True when the slot
     is full: the caller then closes it (``close_slot``)."""
     if fresh:
-        if arb._alt_n == 0 and arb._slots == 0:
+        if arb._slots == 0 and arb._alt_n == 0:  # the first reading (the history's test first)
             arb._alt_ref = alt_mm
         d = alt_mm - arb._alt_ref
         if d > _SLOT_STEP_LIMIT_MM:
@@ -221,52 +232,56 @@ def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2, defer=False):
     """Record the full slot in the history (with the track's velocity, the filter's and the margin
     at its end: half a slot later than the readings' mean, 1 m/s at 4 g) and judge the barometer
     against the accelerometer's bounds, or with ``defer`` leave the judgement to ``judge_late``
-    (``judge_due``). (Every fifth sample at 100 Hz: the values used twice are read once.)"""
+    (``judge_due``). (Every fifth sample at 100 Hz, the slowest sample of the coast: each value
+    is read once, and the judgement takes the new slot's values from here.)"""
     head = arb._head + 1
     if head == _HISTORY_SLOTS:
         head = 0
     arb._head = head
     n = arb._alt_n
     alt = arb._alt_ref
+    unjudged = arb._unjudged
     if n:
         alt += arb._alt_sum // n
-    empty = 0 if n else 1  # no reading in this slot: windows over it are not judged
+        arb._alt_ref = alt
+        arb._alt_sum = arb._alt_n = 0
+        if unjudged:
+            unjudged -= 1
+            arb._unjudged = unjudged
+    else:  # no reading in this slot: the windows over it are not judged
+        unjudged = _WINDOW_SLOTS + 1
+        arb._unjudged = unjudged
     vel = arb.vel_mmps
     if filter_bias_mmps2 > _DR_BIAS_LIMIT:
         filter_bias_mmps2 = _DR_BIAS_LIMIT
     elif filter_bias_mmps2 < -_DR_BIAS_LIMIT:
         filter_bias_mmps2 = -_DR_BIAS_LIMIT
-    arb._empty[head] = empty
+    t_ms = (arb._slot_start_ms + now_ms) >> 1
     arb._alt[head] = alt
     arb._vel[head] = vel
-    arb._t[head] = (arb._slot_start_ms + now_ms) >> 1
+    arb._t[head] = t_ms
     arb._fvel[head] = filter_vel_mmps
     arb._fbias[head] = filter_bias_mmps2
     arb._margin[head] = arb.margin_mmps
-    arb._alt_ref = alt
-    arb._alt_sum = arb._alt_n = 0
     arb._slot_start_ms = now_ms
-    # running sums over the window's slots (the newest _WINDOW_SLOTS + 1): add the new slot,
+    # the running sum over the window's slots (the newest _WINDOW_SLOTS + 1): add the new slot,
     # drop the one that left (re-summing the window cost 13k instructions per judgement)
     win_vel = arb._win_vel + vel
-    win_empty = arb._win_empty + empty
     slots = arb._slots
     if slots > _WINDOW_SLOTS:
         gone = head - _WINDOW_SLOTS - 1
         if gone < 0:
             gone += _HISTORY_SLOTS
         win_vel -= arb._vel[gone]
-        win_empty -= arb._empty[gone]
     arb._win_vel = win_vel
-    arb._win_empty = win_empty
     if slots < _HISTORY_SLOTS:
         slots += 1
         arb._slots = slots
-    if slots > _WINDOW_SLOTS:
+    if slots > _WINDOW_SLOTS and not unjudged:
         if defer:
             arb.judge_due = True
         else:
-            _judge(arb, head)
+            _judge(arb, head, t_ms, alt, win_vel)
 
 
 def judge_late(arb):
@@ -274,21 +289,21 @@ def judge_late(arb):
     the anchor or the history change, and before ``baro_consistent`` or ``baro_rate_mmps`` is read:
     it then gives what it would have on the window's close."""
     arb.judge_due = False
-    _judge(arb, arb._head)
+    head = arb._head
+    _judge(arb, head, arb._t[head], arb._alt[head], arb._win_vel)
 
 
-def _judge(arb, head):
-    """The barometer's climb rate over the window ending at slot ``head``, and its consistency
-    with the accelerometer's bounds (``baro_consistent``)."""
+def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
+    """The barometer's climb rate over the window ending at slot ``head`` (its middle time, mean
+    altitude and the window's sum of track velocities given), and its consistency with the
+    accelerometer's bounds (``baro_consistent``)."""
     oldest = head - _WINDOW_SLOTS
     if oldest < 0:
         oldest += _HISTORY_SLOTS
-    t = arb._t
-    t_ms = t[head]
-    span_ms = t_ms - t[oldest]
-    if arb._win_empty or span_ms <= 0:
+    span_ms = t_ms - arb._t[oldest]
+    if span_ms <= 0:
         return
-    rise_mm = arb._alt[head] - arb._alt[oldest]
+    rise_mm = alt_mm - arb._alt[oldest]
     if rise_mm > _SLOT_STEP_LIMIT_MM:
         rise_mm = _SLOT_STEP_LIMIT_MM
     elif rise_mm < -_SLOT_STEP_LIMIT_MM:
@@ -298,20 +313,23 @@ def _judge(arb, head):
     if not arb.valid:
         arb.baro_consistent = True
         return
-    diff = rate - arb._win_vel // (_WINDOW_SLOTS + 1)
+    diff = rate - win_vel_mmps // (_WINDOW_SLOTS + 1)
     margin = arb.margin_mmps
     allowed = margin + arb.tol_mmps
-    if arb.anchored:
+    anchored = arb.anchored
+    if anchored:
         # out of use since an anchor: the velocity is known better, from the filter's then
         diff += arb.anchor_track_mmps - arb.anchor_filter_mmps
         allowed = margin - arb.anchor_margin_mmps + arb.tol_mmps
     if -allowed <= diff and (diff <= allowed or not arb.upper_valid):
         # (a clipped track under-reads: it bounds the velocity from below only)
-        if arb._agree_ms < 0:
-            arb._agree_ms = t_ms
-        arb.baro_consistent = arb.baro_consistent or t_ms - arb._agree_ms >= _READMIT_MS
+        agree_ms = arb._agree_ms
+        if agree_ms < 0:
+            arb._agree_ms = agree_ms = t_ms
+        if not arb.baro_consistent and t_ms - agree_ms >= _READMIT_MS:
+            arb.baro_consistent = True
+        if anchored and arb.baro_consistent:
+            arb.anchored = False
     else:
         arb._agree_ms = -1
         arb.baro_consistent = False
-    if arb.baro_consistent:
-        arb.anchored = False

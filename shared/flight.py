@@ -89,7 +89,7 @@ from shared.arbitration import Arbitration, add_baro, close_slot, integrate, jud
 from shared.attrs import make_room
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
-from shared.health import HEALTH_ACCEL_BAD, HEALTH_BARO_BAD, SensorHealth
+from shared.health import HEALTH_ACCEL_BAD, HEALTH_BARO_BAD, SensorHealth, check_health
 from shared.kalman import RATE_LIMIT_Q4
 from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
     ERR_BARO_ERRATIC,
@@ -98,6 +98,7 @@ from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
     PAD_BARO_JUMP_MM,
     PAD_ERRORS,
     PadCalibration,
+    update_pad,
 )
 from shared.physics import G_MMPS2
 
@@ -327,7 +328,7 @@ class FlightComputer:
         dt_ms = dt_us // 1000
         state = self.state
         health = self.health
-        have = health.check(now_ms, dt_ms, alt_mm, accel_mmps2, have,
+        have = check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have,
                             self.launched and state <= DROGUE)
         if not started:
             # the first sample: the pad calibration and the filter start from its usable readings
@@ -362,7 +363,7 @@ class FlightComputer:
         kf = self.kf
         if state == PAD:
             pad = self.pad
-            pad.update(now_ms, alt_mm, accel_mmps2, have, kf)
+            update_pad(pad, now_ms, alt_mm, accel_mmps2, have, kf)
             self.errors = (self.errors & ~PAD_ERRORS) | pad.errors
             self.ground_alt_mm = pad.ground_alt_mm
             self.one_g_mmps2 = pad.one_g_mmps2
@@ -370,7 +371,10 @@ class FlightComputer:
         have = _arbitrate(self, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped)
         mode = self.mode
         prior_vel_mmps = kf.vel_q4 >> 4
-        _set_baro_weight(kf, cfg, state, mode, prior_vel_mmps)
+        if prior_vel_mmps > cfg.mach_lockout_mmps:
+            _set_baro_weight(kf, cfg, state, mode, prior_vel_mmps)
+        else:  # (_set_baro_weight's first test: below the lockout speed, full weight)
+            kf.baro_weight_256 = 256
         if have & HAVE_BARO and self._reanchor:
             # after a reset, or the barometer back from an exclusion: its altitude, not its path
             self._reanchor = False
@@ -395,11 +399,19 @@ class FlightComputer:
             # under a parachute the orientation is unknown; a resumed filter follows the
             # barometer alone (see restore_state)
             have &= HAVE_BARO
-        # after a reset the plain model: the saved velocity may be old, the filter re-learns it
-        if state == COAST and not resuming:
-            det.model = _coast_model(mode, prior_vel_mmps)
-        else:
+        # the correction model (tools/gen_gains.py explains the physics and the numbers; written
+        # out: every coast sample). In coast the accelerometer's bias estimated, and below
+        # _LATE_COAST_MMPS the acceleration taken as -g, which needs the barometer (one excluded by
+        # the arbitration leaves the bias model to correct with the accelerometer alone). Fast
+        # (above the Mach lockout) the plain model: a bias learnt from a barometer that lies
+        # through Mach would carry the lie into the velocity. After a reset the plain model: the
+        # saved velocity may be old, the filter re-learns it.
+        if state != COAST or resuming:
             det.model = MODEL_PLAIN
+        elif -_LATE_COAST_MMPS < prior_vel_mmps < _LATE_COAST_MMPS and mode & MODE_BARO:
+            det.model = MODEL_GRAVITY
+        else:
+            det.model = MODEL_BIAS
         if dt_us:
             enabled = state == COAST and _apogee_enabled(self, cfg, now_ms)
             if cfg.baro_lag_ms and have & HAVE_BARO:
@@ -637,26 +649,15 @@ def _configure_detector(det, cfg, state, resuming, settling):
     det.accel_off = state >= DROGUE or resuming  # (step uses the barometer alone then)
 
 
-def _coast_model(mode, vel_mmps):
-    """The correction model in coast: the accelerometer's bias estimated; below _LATE_COAST_MMPS
-    the acceleration taken as -g (tools/gen_gains.py explains the physics and the numbers). Fast
-    (above the Mach lockout) keeps the plain model: a bias learnt from a barometer that lies
-    through Mach would carry the lie into the velocity.
-
-    A barometer excluded by the arbitration (``_arbitrate``) leaves the bias model to correct
-    with the accelerometer alone; the late-coast model needs the barometer."""
-    if -_LATE_COAST_MMPS < vel_mmps < _LATE_COAST_MMPS and mode & MODE_BARO:
-        return MODEL_GRAVITY
-    return MODEL_BIAS
-
-
 def _apogee_enabled(fc, cfg, now_ms):
     """The filter's apogee is allowed (in coast: the caller's test)."""
     arb = fc.arb
-    # the accelerometer's lowest possible velocity first: it holds the apogee off through most
-    # of the coast, and then the rest of the rule is not evaluated
-    if arb.valid and arb.lower_mmps() > cfg.apogee_guard_mmps:
+    # the accelerometer's lowest possible velocity first (``Arbitration.lower_mmps``, written out:
+    # this runs on every coast sample): it holds the apogee off through most of the coast, and
+    # then the rest of the rule is not evaluated
+    if arb.valid and arb.vel_mmps - arb.margin_mmps > cfg.apogee_guard_mmps:
         return False
+    accel_ok = fc.health.accel_ok
     return (fc.flight_proven and fc.drogue_fired_ms < 0
             and fc.apogee_ms < 0 and now_ms >= fc.settle_until_ms
             and now_ms - fc.launch_ms >= cfg.apogee_lockout_ms
@@ -664,8 +665,8 @@ def _apogee_enabled(fc, cfg, now_ms):
             and not (fc._dead_reckoning and arb.valid
                      and arb.dead_reckoned_mmps(now_ms) > cfg.dead_reckoning_guard_mmps)
             and cfg.coast_decel_mmps2 << 4 <= -fc.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
-            and (fc.coast_measured or not fc.health.accel_ok)
-            and (fc.health.accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4))
+            and (fc.coast_measured or not accel_ok)
+            and (accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4))
 
 
 def _update_averages(fc, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms):
@@ -972,12 +973,16 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
     # interval, so sensors on separate rows integrate as a row with both)
     dt_ms = now_ms - fc._arb_ms
     coasting = state == FAST or state == COAST
-    if (state == PAD and (arb.margin_mmps or not arb.valid) and cfg.has_accel
-            and not (acc_kin > cfg.launch_accel_mmps2 or clipped)):
-        arb.start(0)  # at rest: the track starts again at the first boost reading
+    # at rest on the pad: the track starts again at the first boost reading (with a usable
+    # reading, ``integrate`` restarts it as it adds the reading)
+    restart = (state == PAD and (arb.margin_mmps or not arb.valid) and cfg.has_accel
+               and not (acc_kin > cfg.launch_accel_mmps2 or clipped))
+    if restart and (flags & HEALTH_ACCEL_BAD or not have & HAVE_ACCEL):
+        arb.start(0)
+        restart = False
     if flags & HEALTH_ACCEL_BAD and arb.valid:
         arb.stop()  # its integral no longer bounds anything, for the rest of the flight
-    valid = arb.valid
+    valid = arb.valid or restart
     if not (valid and state < DROGUE):  # the track serves the ascent's decisions
         fc._arb_ms = now_ms
     elif have & HAVE_ACCEL or clipped:
@@ -985,7 +990,7 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         if coasting and acc_kin > _NOT_DRAG_MMPS2 and not clipped:
             arb.integrate_missing(dt_ms)  # not drag: a shock or an ejection (see step)
         else:
-            integrate(arb, dt_ms, acc_kin, accel_mmps2, clipped)
+            integrate(arb, dt_ms, acc_kin, accel_mmps2, clipped, restart)
     elif dt_ms * 1000 > _ACCEL_HOLD_US:
         fc._arb_ms = now_ms
         arb.integrate_missing(dt_ms)  # no usable reading for that long: unknown by 1 g x dt

@@ -1,6 +1,6 @@
 """Per-sensor health, judged on every sample before the filter sees the readings.
 
-Portable and allocation-free per sample. ``SensorHealth.check()``, once per sample, takes the
+Portable and allocation-free per sample. ``check_health()``, once per sample, takes the
 sample's ``have`` mask (``shared.detector.HAVE_BARO | HAVE_ACCEL``) and returns the mask of the
 readings that may be used. It judges each reading alone:
 
@@ -47,7 +47,7 @@ _AGE_LIMIT_MS = const(0x3FFFFFFF)  # ages saturate here (days), inside 31 bits
 _SPIKE_ALLOW_MM = const(50000)
 _RATE_DT_MAX_MS = const(200)
 _ONE_G_MMPS2 = const(9807)
-# An accelerometer reading held this long at the flight's largest is clipped (see check): five
+# An accelerometer reading held this long at the flight's largest is clipped (see check_health): five
 # samples at 100 Hz, where a reading that only ties by chance (noise of a least significant bit
 # or more) changes within two or three.
 _CLIP_HOLD_MS = const(50)
@@ -70,11 +70,11 @@ class SensorHealth:
         self.accel_age_ms = 0
         self.baro_ok = config.has_baro  # the board has it and it is not lost
         self.accel_ok = config.has_accel
-        # the readings of the sensors the board has (one operation per sample in check)
+        # the readings of the sensors the board has (one operation per sample in check_health)
         self._board_mask = (HAVE_BARO if config.has_baro else 0) | (HAVE_ACCEL if config.has_accel else 0)
 
     def start_watch(self, config):
-        """Thresholds and state of ``check``'s judgement over time (called once, from the
+        """Thresholds and state of ``check_health``'s judgement over time (called once, from the
         constructor's owner)."""
         self.baro_stuck_ms = config.baro_stuck_ms
         self.accel_stuck_ms = config.accel_stuck_ms
@@ -93,118 +93,127 @@ class SensorHealth:
         self._acc_peak = 0  # the largest accelerometer reading in flight (mm/s^2)
         self._acc_change_ms = 0  # when the accelerometer's reading last changed
 
-    def check(self, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
-        """The usable readings of this sample: ``have`` without the readings that cannot be
-        trusted, judged alone and over time (``in_flight``: after launch); counts each sensor's
-        time without a usable reading and sets ``flags``, ``changed`` and ``clipped``.
 
-        One call per sample, the sensors written out (on MicroPython a method call costs as
-        much as a dozen arithmetic operations; docs/BENCHMARKS.md, "Per-sample cost")."""
-        # the readings alone: a sensor the board does not have, a pressure outside the table, a
-        # reading at the accelerometer's full scale
-        have &= self._board_mask
-        if have & HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):
-            have &= HAVE_ACCEL  # an out-of-range pressure is not a reading
-            self.baro_out_of_range += 1
-        limit = self.accel_limit_mmps2
-        clipped = False
-        if have & HAVE_ACCEL and limit and (accel_mmps2 >= limit or accel_mmps2 <= -limit):
-            have &= HAVE_BARO  # a clipped reading under-reads: use the barometer alone
-            self.accel_clipped += 1
-            clipped = True
-        # over time: frozen runs, impossible steps, a peak held at full scale (in flight only,
-        # where noise is certain; on the pad shared/padcal.py judges barometric jumps)
-        # (a run of identical readings that starts on this sample is not frozen: the stuck times
-        # are at least 0.1 s, so its test is skipped)
-        flags = 0
-        moved = False
-        has_baro = self.has_baro
-        if has_baro:
-            seen = self._baro_seen
-            if have & HAVE_BARO:
-                step = alt_mm - self._baro_last
-                if step < 0:
-                    step = -step
-                if in_flight and seen:
-                    since_ms = now_ms - self._baro_fresh_ms
-                    if (since_ms <= _RATE_DT_MAX_MS
-                            and step > self.baro_rate_max_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM):
-                        have &= HAVE_ACCEL
-                        self.baro_spikes += 1
-                if step or not seen:
-                    self._baro_run_ms = now_ms
-                    moved = True
-                self._baro_last = alt_mm
-                self._baro_fresh_ms = now_ms
-                if not seen:
-                    self._baro_seen = seen = True
-            if (not moved and in_flight and seen
-                    and now_ms - self._baro_run_ms >= self.baro_stuck_ms):
-                flags = HEALTH_BARO_STUCK
-                have &= HAVE_ACCEL
-        self.baro_moved = moved
-        has_accel = self.has_accel
-        if has_accel:
-            seen = self._acc_seen
-            run_now = False
-            if have & HAVE_ACCEL:
-                size = accel_mmps2 if accel_mmps2 >= 0 else -accel_mmps2
-                peak = self._acc_peak
-                if in_flight and size > peak:
-                    self._acc_peak = peak = size
-                held = accel_mmps2 == self._acc_last and seen
-                if not held:
-                    self._acc_change_ms = now_ms
-                if (in_flight and held and size >= peak and size > _ONE_G_MMPS2
-                        and size >= self._early_clip_mmps2):
-                    # held at the largest reading of the flight: the part's full scale (an
-                    # unknown range, or a part that clips early: not below half its configured
-                    # range), once held _CLIP_HOLD_MS (two equal readings at a noisy peak are
-                    # chance); never frozen
-                    if now_ms - self._acc_change_ms >= _CLIP_HOLD_MS:
-                        have &= HAVE_BARO
-                        self.accel_clipped += 1
-                        clipped = True
-                    run_now = True
-                elif not held or size < _ONE_G_MMPS2:
-                    run_now = True
-                if run_now:
-                    self._acc_run_ms = now_ms
-                self._acc_last = accel_mmps2
-                if not seen:
-                    self._acc_seen = seen = True
-            if (not run_now and in_flight and seen
-                    and now_ms - self._acc_run_ms >= self.accel_stuck_ms):
-                flags |= HEALTH_ACCEL_STUCK
-                have &= HAVE_BARO
-        self.clipped = clipped
-        # lost: the time without a usable reading (a frozen sensor's readings are not usable
-        # either); a sensor silent for sensor_lost_s no longer proves anything
-        lost_ms = self.lost_ms
-        age = self.baro_age_ms
+def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
+    """The usable readings of this sample: ``have`` without the readings that cannot be
+    trusted, judged alone and over time (``in_flight``: after launch); counts each sensor's
+    time without a usable reading and sets ``flags``, ``changed`` and ``clipped``.
+
+    One call per sample, the sensors written out, and a module-level function taking the
+    health (on MicroPython a method call costs as much as a dozen arithmetic operations, a
+    function call half as much; docs/BENCHMARKS.md, "Per-sample cost")."""
+    # the readings alone: a sensor the board does not have, a pressure outside the table, a
+    # reading at the accelerometer's full scale
+    have &= health._board_mask
+    if have & HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):
+        have &= HAVE_ACCEL  # an out-of-range pressure is not a reading
+        health.baro_out_of_range += 1
+    limit = health.accel_limit_mmps2
+    clipped = False
+    if have & HAVE_ACCEL and limit and (accel_mmps2 >= limit or accel_mmps2 <= -limit):
+        have &= HAVE_BARO  # a clipped reading under-reads: use the barometer alone
+        health.accel_clipped += 1
+        clipped = True
+    # over time: frozen runs, impossible steps, a peak held at full scale (in flight only,
+    # where noise is certain; on the pad shared/padcal.py judges barometric jumps)
+    # (a run of identical readings that starts on this sample is not frozen: the stuck times
+    # are at least 0.1 s, so its test is skipped)
+    flags = 0
+    moved = False
+    has_baro = health.has_baro
+    if has_baro:
+        seen = health._baro_seen
         if have & HAVE_BARO:
-            age = 0
-        elif age < _AGE_LIMIT_MS - dt_ms:
-            age += dt_ms
-        self.baro_age_ms = age
-        ok = False
-        if has_baro:
-            ok = age < lost_ms
-            if not ok:
-                flags |= HEALTH_BARO_LOST
-        self.baro_ok = ok
-        age = self.accel_age_ms
-        if have & HAVE_ACCEL or clipped:  # clipped: alive, at full scale
-            age = 0
-        elif age < _AGE_LIMIT_MS - dt_ms:
-            age += dt_ms
-        self.accel_age_ms = age
-        ok = False
-        if has_accel:
-            ok = age < lost_ms
-            if not ok:
-                flags |= HEALTH_ACCEL_LOST
-        self.accel_ok = ok
-        self.changed = flags != self.flags
-        self.flags = flags
-        return have
+            step = alt_mm - health._baro_last
+            if step < 0:
+                step = -step
+            # (a step within _SPIKE_ALLOW_MM is within any rate's bound: the rate's test, a
+            # multiply and a division, only for a larger one)
+            if in_flight and seen and step > _SPIKE_ALLOW_MM:
+                since_ms = now_ms - health._baro_fresh_ms
+                if (since_ms <= _RATE_DT_MAX_MS
+                        and step > health.baro_rate_max_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM):
+                    have &= HAVE_ACCEL
+                    health.baro_spikes += 1
+            if step or not seen:
+                health._baro_run_ms = now_ms
+                moved = True
+            health._baro_last = alt_mm
+            health._baro_fresh_ms = now_ms
+            if not seen:
+                health._baro_seen = seen = True
+        if (not moved and in_flight and seen
+                and now_ms - health._baro_run_ms >= health.baro_stuck_ms):
+            flags = HEALTH_BARO_STUCK
+            have &= HAVE_ACCEL
+    health.baro_moved = moved
+    has_accel = health.has_accel
+    if has_accel:
+        seen = health._acc_seen
+        run_now = False
+        if have & HAVE_ACCEL:
+            size = accel_mmps2 if accel_mmps2 >= 0 else -accel_mmps2
+            peak = health._acc_peak
+            if in_flight and size > peak:
+                health._acc_peak = peak = size
+            held = accel_mmps2 == health._acc_last and seen
+            if not held:
+                health._acc_change_ms = now_ms
+            if (in_flight and held and size >= peak and size > _ONE_G_MMPS2
+                    and size >= health._early_clip_mmps2):
+                # held at the largest reading of the flight: the part's full scale (an
+                # unknown range, or a part that clips early: not below half its configured
+                # range), once held _CLIP_HOLD_MS (two equal readings at a noisy peak are
+                # chance); never frozen
+                if now_ms - health._acc_change_ms >= _CLIP_HOLD_MS:
+                    have &= HAVE_BARO
+                    health.accel_clipped += 1
+                    clipped = True
+                run_now = True
+            elif not held or size < _ONE_G_MMPS2:
+                run_now = True
+            if run_now:
+                health._acc_run_ms = now_ms
+            health._acc_last = accel_mmps2
+            if not seen:
+                health._acc_seen = seen = True
+        if (not run_now and in_flight and seen
+                and now_ms - health._acc_run_ms >= health.accel_stuck_ms):
+            flags |= HEALTH_ACCEL_STUCK
+            have &= HAVE_BARO
+    health.clipped = clipped
+    # lost: the time without a usable reading (a frozen sensor's readings are not usable
+    # either); a sensor silent for sensor_lost_s no longer proves anything
+    # (each value stored only when it changes: a store costs more than the test)
+    lost_ms = health.lost_ms
+    age = health.baro_age_ms
+    if have & HAVE_BARO:
+        if age:
+            health.baro_age_ms = age = 0
+    elif age < _AGE_LIMIT_MS - dt_ms:
+        age += dt_ms
+        health.baro_age_ms = age
+    ok = False
+    if has_baro:
+        ok = age < lost_ms
+        if not ok:
+            flags |= HEALTH_BARO_LOST
+    health.baro_ok = ok
+    age = health.accel_age_ms
+    if have & HAVE_ACCEL or clipped:  # clipped: alive, at full scale
+        if age:
+            health.accel_age_ms = age = 0
+    elif age < _AGE_LIMIT_MS - dt_ms:
+        age += dt_ms
+        health.accel_age_ms = age
+    ok = False
+    if has_accel:
+        ok = age < lost_ms
+        if not ok:
+            flags |= HEALTH_ACCEL_LOST
+    health.accel_ok = ok
+    changed = flags != health.flags
+    health.changed = changed
+    if changed:
+        health.flags = flags
+    return have

@@ -25,7 +25,7 @@ from shared.physics import G_MMPS2
 
 _CAL_BLOCK_MS = const(1000)
 _PAD_OFFSET_LIMIT_MM = const(0xFFFFF)  # 2**20 - 1: 1 km
-# The pad reading of the axis must be within 50% of 1 g (see check_orientation): a wrong part or
+# The pad reading of the axis must be within 50% of 1 g (see _check_orientation): a wrong part or
 # range, an inverted mount, or a board lying down (docs/DESIGN.md D4).
 _ONE_G_MIN = const(4903)
 _ONE_G_MAX = const(14710)
@@ -103,90 +103,6 @@ class PadCalibration:
         shorter than that: the first sample's)."""
         return self._hist2
 
-    def update(self, now_ms, alt_mm, accel_mmps2, have, kf):
-        """Average a quiet pad sample's readings into the references; re-base ``kf`` on a pressure
-        step (or on the first barometric reading when the first samples had none).
-
-        (The usual path calls no method: on MicroPython a method call costs as much as a dozen
-        arithmetic operations; docs/BENCHMARKS.md, "Per-sample cost".)"""
-        if now_ms - self._hist_ms >= _HISTORY_MS:  # the history of the ground reference
-            self._hist2 = self._hist1
-            self._hist1 = self._hist0
-            self._hist0 = self.ground_alt_mm
-            self._hist_ms = now_ms
-        baro = have & HAVE_BARO
-        if baro:
-            if self._ref_pending:  # the first barometric reading: the first samples had none
-                self._ref_pending = False
-                self._rebase(alt_mm, kf)
-                self._hist0 = self._hist1 = self._hist2 = self.ground_alt_mm
-                return
-            jump = alt_mm - (kf.alt_q4 >> 4)
-            if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
-                self.errors |= ERR_PAD_BARO_STEP
-                # one step is weather or the av-bay; three within a second is a broken sensor
-                self._jumps = self._jumps + 1 if now_ms - self._last_jump_ms < 1000 else 1
-                self._last_jump_ms = now_ms
-                if self._jumps >= 3:
-                    self.errors |= ERR_BARO_ERRATIC
-                self._rebase(alt_mm, kf)
-                return
-            if self.errors & ERR_BARO_ERRATIC and now_ms - self._last_jump_ms > 2000:
-                self.errors &= ~ERR_BARO_ERRATIC
-            self._baro_ms = now_ms
-            self._baro_alt_mm = alt_mm
-            d_alt = alt_mm - self._ref_mm
-            # bounded so that a block's sum stays in 31 bits (1 km x 200 samples at 200 Hz) even if
-            # the board sits in pad mode while the barometer sees a flight (launch refused)
-            if d_alt > _PAD_OFFSET_LIMIT_MM:
-                d_alt = _PAD_OFFSET_LIMIT_MM
-            elif d_alt < -_PAD_OFFSET_LIMIT_MM:
-                d_alt = -_PAD_OFFSET_LIMIT_MM
-        if have & HAVE_ACCEL:
-            limit = self.launch_accel_mmps2
-            acc_kin = accel_mmps2 - self.one_g_mmps2
-            # quiet: no boost, and not climbing under a push (a slow boost) by the barometer's
-            # reading on this sample or just before it
-            quiet = -limit < acc_kin < limit and not (
-                acc_kin > _PUSH_MMPS2 and self._baro_ms >= 0 and now_ms - self._baro_ms < _ACCEL_HOLD_MS
-                and kf.vel_q4 >> 4 > _QUIET_SPEED_MMPS
-                and self._baro_alt_mm - self.ground_alt_mm > _QUIET_CLIMB_MM)
-            # the barometric readings since the previous accelerometer reading were quiet if the
-            # accelerometer readings on both sides of them are
-            if quiet and self._accel_quiet and self._pend_alt_n:
-                _add_alt(self, self._pend_alt, self._pend_alt_n)
-            self._pend_alt = self._pend_alt_n = 0
-            self._accel_quiet = quiet
-            self._accel_ms = now_ms
-            if not quiet:
-                return
-            if baro:
-                _add_alt(self, d_alt, 1)
-            self._blk_acc += accel_mmps2
-            self._blk_acc_n += 1
-        elif baro:
-            if not self.has_accel or now_ms - self._accel_ms >= _ACCEL_HOLD_MS:
-                _add_alt(self, d_alt, 1)  # no accelerometer (lately): the barometer alone
-            elif self._accel_quiet:
-                self._pend_alt += d_alt  # quiet if the next accelerometer reading is
-                self._pend_alt_n += 1
-        first = self._prev_alt_n + self._prev_acc_n == 0  # no complete block yet
-        if now_ms - self._blk_start_ms >= _CAL_BLOCK_MS:
-            # two blocks (2 s) so that coarse quantisation or handling cannot make it flicker
-            n = self._blk_acc_n + self._prev_acc_n
-            if n:
-                self.check_orientation((self._blk_acc + self._prev_acc) // n)
-            if not first:
-                self._apply(self._prev_alt, self._prev_alt_n, self._prev_acc, self._prev_acc_n)
-            self._prev_alt = self._blk_alt
-            self._prev_alt_n = self._blk_alt_n
-            self._prev_acc = self._blk_acc
-            self._prev_acc_n = self._blk_acc_n
-            self._blk_alt = self._blk_alt_n = self._blk_acc = self._blk_acc_n = 0
-            self._blk_start_ms = now_ms
-        elif first:  # all quiet readings so far: this block's
-            self._apply(self._blk_alt, self._blk_alt_n, self._blk_acc, self._blk_acc_n)
-
     def _rebase(self, alt_mm, kf):
         """Restart the filter and the averages at the barometric altitude ``alt_mm``."""
         kf.reset(alt_mm, 0, 0)
@@ -198,38 +114,132 @@ class PadCalibration:
         if not self.ground_fixed:
             self.ground_alt_mm = alt_mm
 
-    def check_orientation(self, one_g):
-        """Quiet pad readings must average 1 g +-50% on the axis: catches a wrong part (ADXL345 for
-        ADXL375: 12.5 g or 0.08 g), a range setting off by 2 or more, an inverted mount (-1 g), a
-        board lying down (0 g), and passes an ADXL375 at the edge of its datasheet offset
-        (+-0.4 g) and scale (+-5%) on a rail tilted up to 30 degrees. Flags ERR_ORIENTATION, which
-        forbids launch, until the readings pass again."""
-        if not self.has_accel:
-            return
-        if _ONE_G_MIN <= one_g <= _ONE_G_MAX:
-            self.errors &= ~ERR_ORIENTATION
-        else:
-            self.errors |= ERR_ORIENTATION
 
-    def _apply(self, alt_sum, alt_n, acc_sum, acc_n):
-        """Take averages as the ground references. Sums are of altitude offsets from _ref_mm
-        (metres) and of ~1 g readings over a few hundred samples: well inside 31 bits. An
-        accelerometer average outside 1 g +-50% is not used (a short pad may hold the first
-        motion): the nominal 1 g stays."""
-        if alt_n:
-            if not self.ground_fixed:
-                self.ground_alt_mm = self._ref_mm + alt_sum // alt_n
-            self.cal_samples = alt_n
-        if acc_n:
-            one_g = acc_sum // acc_n
-            if self.has_accel and _ONE_G_MIN <= one_g <= _ONE_G_MAX:
-                self.one_g_mmps2 = one_g
-            if not alt_n:
-                self.cal_samples = acc_n
+def update_pad(pad, now_ms, alt_mm, accel_mmps2, have, kf):
+    """Average a quiet pad sample's readings into the references; re-base ``kf`` on a pressure
+    step (or on the first barometric reading when the first samples had none).
+
+    A module-level function taking the calibration, whose usual path calls no method: on
+    MicroPython a method call costs as much as a dozen arithmetic operations, a function call half
+    as much (docs/BENCHMARKS.md, "Per-sample cost")."""
+    if now_ms - pad._hist_ms >= _HISTORY_MS:  # the history of the ground reference
+        pad._hist2 = pad._hist1
+        pad._hist1 = pad._hist0
+        pad._hist0 = pad.ground_alt_mm
+        pad._hist_ms = now_ms
+    baro = have & HAVE_BARO
+    if baro:
+        if pad._ref_pending:  # the first barometric reading: the first samples had none
+            pad._ref_pending = False
+            pad._rebase(alt_mm, kf)
+            pad._hist0 = pad._hist1 = pad._hist2 = pad.ground_alt_mm
+            return
+        jump = alt_mm - (kf.alt_q4 >> 4)
+        if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
+            pad.errors |= ERR_PAD_BARO_STEP
+            # one step is weather or the av-bay; three within a second is a broken sensor
+            pad._jumps = pad._jumps + 1 if now_ms - pad._last_jump_ms < 1000 else 1
+            pad._last_jump_ms = now_ms
+            if pad._jumps >= 3:
+                pad.errors |= ERR_BARO_ERRATIC
+            pad._rebase(alt_mm, kf)
+            return
+        if pad.errors & ERR_BARO_ERRATIC and now_ms - pad._last_jump_ms > 2000:
+            pad.errors &= ~ERR_BARO_ERRATIC
+        pad._baro_ms = now_ms
+        pad._baro_alt_mm = alt_mm
+        d_alt = alt_mm - pad._ref_mm
+        # bounded so that a block's sum stays in 31 bits (1 km x 200 samples at 200 Hz) even if
+        # the board sits in pad mode while the barometer sees a flight (launch refused)
+        if d_alt > _PAD_OFFSET_LIMIT_MM:
+            d_alt = _PAD_OFFSET_LIMIT_MM
+        elif d_alt < -_PAD_OFFSET_LIMIT_MM:
+            d_alt = -_PAD_OFFSET_LIMIT_MM
+    if have & HAVE_ACCEL:
+        limit = pad.launch_accel_mmps2
+        acc_kin = accel_mmps2 - pad.one_g_mmps2
+        # quiet: no boost, and not climbing under a push (a slow boost) by the barometer's
+        # reading on this sample or just before it
+        quiet = -limit < acc_kin < limit and not (
+            acc_kin > _PUSH_MMPS2 and pad._baro_ms >= 0 and now_ms - pad._baro_ms < _ACCEL_HOLD_MS
+            and kf.vel_q4 >> 4 > _QUIET_SPEED_MMPS
+            and pad._baro_alt_mm - pad.ground_alt_mm > _QUIET_CLIMB_MM)
+        # the barometric readings since the previous accelerometer reading were quiet if the
+        # accelerometer readings on both sides of them are (none on the usual sample: the
+        # pending sums are then empty already)
+        pend_n = pad._pend_alt_n
+        if pend_n:
+            if quiet and pad._accel_quiet:
+                _add_alt(pad, pad._pend_alt, pend_n)
+            pad._pend_alt = pad._pend_alt_n = 0
+        pad._accel_quiet = quiet
+        pad._accel_ms = now_ms
+        if not quiet:
+            return
+        if baro:  # (_add_alt written out: the usual pad sample)
+            pad._blk_alt += d_alt
+            pad._blk_alt_n += 1
+        pad._blk_acc += accel_mmps2
+        pad._blk_acc_n += 1
+    elif baro:
+        if not pad.has_accel or now_ms - pad._accel_ms >= _ACCEL_HOLD_MS:
+            _add_alt(pad, d_alt, 1)  # no accelerometer (lately): the barometer alone
+        elif pad._accel_quiet:
+            pad._pend_alt += d_alt  # quiet if the next accelerometer reading is
+            pad._pend_alt_n += 1
+    first = pad._prev_alt_n + pad._prev_acc_n == 0  # no complete block yet
+    if now_ms - pad._blk_start_ms >= _CAL_BLOCK_MS:
+        # two blocks (2 s) so that coarse quantisation or handling cannot make it flicker
+        n = pad._blk_acc_n + pad._prev_acc_n
+        if n:
+            _check_orientation(pad, (pad._blk_acc + pad._prev_acc) // n)
+        if not first:
+            _apply(pad, pad._prev_alt, pad._prev_alt_n, pad._prev_acc, pad._prev_acc_n)
+        pad._prev_alt = pad._blk_alt
+        pad._prev_alt_n = pad._blk_alt_n
+        pad._prev_acc = pad._blk_acc
+        pad._prev_acc_n = pad._blk_acc_n
+        pad._blk_alt = pad._blk_alt_n = pad._blk_acc = pad._blk_acc_n = 0
+        pad._blk_start_ms = now_ms
+    elif first:  # all quiet readings so far: this block's (every sample of the first second)
+        _apply(pad, pad._blk_alt, pad._blk_alt_n, pad._blk_acc, pad._blk_acc_n)
+
+
+def _check_orientation(pad, one_g):
+    """Quiet pad readings must average 1 g +-50% on the axis: catches a wrong part (ADXL345 for
+    ADXL375: 12.5 g or 0.08 g), a range setting off by 2 or more, an inverted mount (-1 g), a
+    board lying down (0 g), and passes an ADXL375 at the edge of its datasheet offset
+    (+-0.4 g) and scale (+-5%) on a rail tilted up to 30 degrees. Flags ERR_ORIENTATION, which
+    forbids launch, until the readings pass again."""
+    if not pad.has_accel:
+        return
+    if _ONE_G_MIN <= one_g <= _ONE_G_MAX:
+        pad.errors &= ~ERR_ORIENTATION
+    else:
+        pad.errors |= ERR_ORIENTATION
+
+
+def _apply(pad, alt_sum, alt_n, acc_sum, acc_n):
+    """Take averages as the ground references. Sums are of altitude offsets from _ref_mm
+    (metres) and of ~1 g readings over a few hundred samples: well inside 31 bits. An
+    accelerometer average outside 1 g +-50% is not used (a short pad may hold the first
+    motion): the nominal 1 g stays. (A module-level function: in the first second it runs on
+    every pad sample.)"""
+    if alt_n:
+        if not pad.ground_fixed:
+            pad.ground_alt_mm = pad._ref_mm + alt_sum // alt_n
+        pad.cal_samples = alt_n
+    if acc_n:
+        one_g = acc_sum // acc_n
+        if pad.has_accel and _ONE_G_MIN <= one_g <= _ONE_G_MAX:
+            pad.one_g_mmps2 = one_g
+        if not alt_n:
+            pad.cal_samples = acc_n
 
 
 def _add_alt(pad, alt_sum, n):
-    """Add barometric offsets to the block's sums. A module-level function: it is called on most
-    pad samples, and on MicroPython a method call costs up to three times a function call."""
+    """Add barometric offsets to the block's sums (readings that waited for the next
+    accelerometer verdict, or without an accelerometer). A module-level function: on MicroPython
+    a method call costs up to three times a function call."""
     pad._blk_alt += alt_sum
     pad._blk_alt_n += n

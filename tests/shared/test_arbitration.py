@@ -16,10 +16,16 @@ import pytest
 import shared.arbitration as arbitration_module
 import shared.flight as flight_module
 from shared.arbitration import Arbitration, add_baro, close_slot, integrate, judge_late
-from shared.config import load_config
+from shared.config import Config, load_config
 from shared.detector import HAVE_BOTH
 from shared.flight import EV_HEALTH, EV_LAUNCH, EV_MODE, MODE_ACCEL, MODE_BARO
-from shared.health import HEALTH_ACCEL_STUCK, HEALTH_BARO_LOST, HEALTH_BARO_STUCK, SensorHealth
+from shared.health import (
+    HEALTH_ACCEL_STUCK,
+    HEALTH_BARO_LOST,
+    HEALTH_BARO_STUCK,
+    SensorHealth,
+    check_health,
+)
 from tests.support.fault_flight import MACH_ROCKET, SUBSONIC_ROCKET, Faults, Rocket, fly, run
 
 MACH14_ROCKET = Rocket(thrust_n=480.0, burn_s=1.8, prop_kg=0.3)  # about Mach 1.65
@@ -192,6 +198,17 @@ def test_track_integrates_to_the_true_velocity():
     assert abs(arb.margin_mmps - expected) <= 0.02 * expected
 
 
+def _without_apogee_guard(monkeypatch):
+    # the accelerometer's lowest possible velocity never holds the apogee off (_apogee_enabled)
+    init = Config.__init__
+
+    def no_guard(self, values):
+        init(self, values)
+        self.apogee_guard_mmps = 10 ** 9
+
+    monkeypatch.setattr(Config, "__init__", no_guard)
+
+
 # Each rule removed must make one of the cases above fail (the mutation that the named test
 # catches; docs/DESIGN.md safety-invariants table).
 def _no_guard(self):
@@ -231,10 +248,10 @@ def test_each_rule_is_needed(monkeypatch, removed, fl_args, early_without):
         fl = _lying_barometer(*fl_args)
     config = {"backup_drogue_s": round(fl.apogee_s + 3)}
     assert run(fl, **config).early_s <= 0.05  # with every rule
-    monkeypatch.setattr(arbitration_module, "_judge", lambda arb, head: None)
+    monkeypatch.setattr(arbitration_module, "_judge", lambda *window: None)
     if removed == "guard":
         assert run(fl, **config).early_s <= 0.05  # the guard alone holds it
-        monkeypatch.setattr(Arbitration, "lower_mmps", lambda self: -10 ** 9)
+        _without_apogee_guard(monkeypatch)
     elif removed == "baro_health":
         monkeypatch.undo()
         monkeypatch.setattr(flight_module, "HEALTH_BARO_BAD", 0)
@@ -353,7 +370,7 @@ def test_a_reading_held_at_the_flights_peak_is_clipped_only_when_held(held_sampl
     readings = [140000 + 1000 * k for k in range(10)] + [150000] * held_samples + [149000]
     seen = False
     for i, acc in enumerate(readings):
-        health.check(10 * i, 10, 100000 + 500 * i, acc, HAVE_BOTH, True)
+        check_health(health, 10 * i, 10, 100000 + 500 * i, acc, HAVE_BOTH, True)
         seen = seen or health.clipped
     assert seen == clipped
     assert not health.flags & HEALTH_ACCEL_STUCK
@@ -369,7 +386,7 @@ def test_a_held_peak_far_below_the_configured_range_is_not_clipped():
     readings = [140000 + 1000 * k for k in range(10)] + [150000] * 10 + [149000]
     seen = False
     for i, acc in enumerate(readings):
-        health.check(20 * i, 20, 100000 + 500 * i, acc, HAVE_BOTH, True)
+        check_health(health, 20 * i, 20, 100000 + 500 * i, acc, HAVE_BOTH, True)
         seen = seen or health.clipped
     assert not seen
 

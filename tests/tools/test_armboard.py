@@ -162,12 +162,6 @@ def test_bench_flight_heap_locked_bit_identical(board):
 
 @pytest.mark.arm
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="the worst sample is over the Cortex-M0 budget since the pad/launch/"
-                   "proof redesign, the sensor arbitration and the per-sensor reading intervals: after "
-                   "issue 15's fourth round the mean is within it (112.5k to 113.8k in the four forms) "
-                   "and the worst is not (142.8k to 145.5k: samples that close an arbitration slot in "
-                   "the pad's first second or in the coast; docs/BENCHMARKS.md): those samples must "
-                   "get cheaper")
 def test_bench_flight_within_instruction_budget(board):
     form = board[0]
     s = _bench_flight(board)[4]
