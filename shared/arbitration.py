@@ -49,6 +49,17 @@ _VEL_LIMIT_MMPS = const(0x3FFFFF)  # 2**22 - 1 mm/s (4 km/s)
 # configuration allows) times at most 300 s in centiseconds stays inside 31 bits
 _DR_BIAS_LIMIT = const(0x7FFF)
 _DR_LIMIT_CS = const(30000)
+# The change test (``_judge``): the barometer's rate minus the track's, from one window to the
+# window that ended _WINDOW_SLOTS earlier. Its noise is learnt while the test holds: the mean
+# absolute change over about 2 s of windows (1/_CHANGE_AVG_N per judgement, 20 per second), and
+# the tolerance is baro_change_mps plus _CHANGE_NOISE_K times it (a 20 Hz barometer with 6 m of
+# noise changes its rate by 25 m/s RMS from window to window, an AltOS part by 2 to 5 m/s). A
+# single bad reading moves one slot, and so two windows that are 0.5 s apart; a step moves every
+# window that holds it: _CHANGE_RUN consecutive windows (0.15 s) make a step.
+_CHANGE_AVG_N = const(40)
+_CHANGE_NOISE_K = const(3)
+_CHANGE_RUN = const(3)
+_NO_DIFF = const(-0x3FFFFFFF)  # a slot whose window was not judged
 
 
 def _clamp(x, limit):
@@ -66,6 +77,8 @@ class Arbitration:
         self.bias_max_mmps2 = config.accel_bias_max_mmps2
         self.tilt_loss_1024 = config.tilt_loss_1024
         self.tol_mmps = config.baro_consistency_mmps
+        self.change_tol_mmps = config.baro_change_mmps
+        self.change_below_mmps = config.baro_change_below_mmps
         self.valid = False  # the track runs (from launch, healthy accelerometer)
         self.upper_valid = False
         self.vel_mmps = 0
@@ -91,6 +104,11 @@ class Arbitration:
         self._fvel = array("i", [0] * _HISTORY_SLOTS)
         self._fbias = array("i", [0] * _HISTORY_SLOTS)
         self._margin = array("i", [0] * _HISTORY_SLOTS)
+        # each judged window's barometric rate minus the track's mean velocity (mm/s; _NO_DIFF:
+        # not judged), the change test's learnt noise and its run of failing windows
+        self._diff = array("i", [_NO_DIFF] * _HISTORY_SLOTS)
+        self._change_avg_mmps = 0
+        self._change_run = 0
         self._slots = 0  # slots filled (saturates at _HISTORY_SLOTS)
         self._win_vel = 0  # sum of the track's velocities over the window's slots (mm/s)
         # closes to come before the window holds no slot without a barometric reading (such a
@@ -263,6 +281,7 @@ def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2, defer=False):
     arb._fvel[head] = filter_vel_mmps
     arb._fbias[head] = filter_bias_mmps2
     arb._margin[head] = arb.margin_mmps
+    arb._diff[head] = _NO_DIFF
     arb._slot_start_ms = now_ms
     # the running sum over the window's slots (the newest _WINDOW_SLOTS + 1): add the new slot,
     # drop the one that left (re-summing the window cost 13k instructions per judgement)
@@ -313,15 +332,35 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
     if not arb.valid:
         arb.baro_consistent = True
         return
-    diff = rate - win_vel_mmps // (_WINDOW_SLOTS + 1)
+    track_mmps = win_vel_mmps // (_WINDOW_SLOTS + 1)
+    diff = rate - track_mmps
+    arb._diff[head] = diff
     margin = arb.margin_mmps
+    # the change test: below baro_change_below_mps the barometer's lag and the static-port error
+    # change slowly, and over half a second the accelerometer knows the change of velocity to
+    # about 1 m/s: a barometric rate that changed by far more than the track's is a pressure step
+    # (a -60 m step in the late coast pulled the filter's velocity through zero 2.8 s early)
+    stepped = False
+    before = arb._diff[oldest]
+    if before != _NO_DIFF and -arb.change_below_mmps < track_mmps < arb.change_below_mmps:
+        change = diff - before
+        if change < 0:
+            change = -change
+        avg = arb._change_avg_mmps
+        if change > (arb.change_tol_mmps + margin - arb._margin[oldest]
+                     + _CHANGE_NOISE_K * avg):
+            arb._change_run += 1
+            stepped = arb._change_run >= _CHANGE_RUN
+        else:
+            arb._change_run = 0
+            arb._change_avg_mmps = avg + (change - avg) // _CHANGE_AVG_N
     allowed = margin + arb.tol_mmps
     anchored = arb.anchored
     if anchored:
         # out of use since an anchor: the velocity is known better, from the filter's then
         diff += arb.anchor_track_mmps - arb.anchor_filter_mmps
         allowed = margin - arb.anchor_margin_mmps + arb.tol_mmps
-    if -allowed <= diff and (diff <= allowed or not arb.upper_valid):
+    if not stepped and -allowed <= diff and (diff <= allowed or not arb.upper_valid):
         # (a clipped track under-reads: it bounds the velocity from below only)
         agree_ms = arb._agree_ms
         if agree_ms < 0:

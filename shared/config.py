@@ -85,6 +85,11 @@ SCHEMA = {
         "no apogee while the accelerometer's lowest possible vertical velocity exceeds this"),
     "baro_consistency_mps": (50, 10, 500, "m/s",
         "barometric climb rate outside the accelerometer's velocity bounds by more than this is not motion"),
+    "baro_change_mps": (30, 5, 500, "m/s",
+        "below baro_change_below_mps: a barometric rate that changes this much more than the "
+        "accelerometer's within half a second (plus 3 x its learnt noise) is a pressure step, not motion"),
+    "baro_change_below_mps": (100, 0, 1000, "m/s",
+        "the change test applies below this vertical speed (the accelerometer's; 0 = off)"),
     "dead_reckoning_guard_mps": (0, 0, 50, "m/s",
         "after the barometer was left out in coast: no apogee while the accelerometer's velocity "
         "carried on from the filter's before the fault exceeds this"),
@@ -163,6 +168,8 @@ class Config:
         self.tilt_loss_1024 = int(round((1 / math.cos(math.radians(v["accel_tilt_max_deg"])) - 1) * 1024))
         self.apogee_guard_mmps = int(v["apogee_guard_mps"] * 1000)
         self.baro_consistency_mmps = int(v["baro_consistency_mps"] * 1000)
+        self.baro_change_mmps = int(v["baro_change_mps"] * 1000)
+        self.baro_change_below_mmps = int(v["baro_change_below_mps"] * 1000)
         self.dead_reckoning_guard_mmps = int(v["dead_reckoning_guard_mps"] * 1000)
         self.baro_track_sq_q4 = int(v["baro_track_m"] ** 2 * 16)  # 1/16 m^2
         self.baro_step_rate_mmps = int(v["baro_step_rate_mps"] * 1000)
