@@ -342,7 +342,8 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
     # (a -60 m step in the late coast pulled the filter's velocity through zero 2.8 s early)
     stepped = False
     before = arb._diff[oldest]
-    if before != _NO_DIFF and -arb.change_below_mmps < track_mmps < arb.change_below_mmps:
+    if (arb.baro_consistent and before != _NO_DIFF
+            and -arb.change_below_mmps < track_mmps < arb.change_below_mmps):
         change = diff - before
         if change < 0:
             change = -change
@@ -351,6 +352,9 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
                      + _CHANGE_NOISE_K * avg):
             arb._change_run += 1
             stepped = arb._change_run >= _CHANGE_RUN
+            # nor is this window a reference for the one half a second on: once the step has left
+            # the window the barometer agrees again (as with the bounds), not half a second later
+            arb._diff[head] = _NO_DIFF
         else:
             arb._change_run = 0
             arb._change_avg_mmps = avg + (change - avg) // _CHANGE_AVG_N

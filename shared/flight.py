@@ -998,11 +998,13 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
     if cfg.has_baro:
         if add_baro(arb, now_ms, alt_mm, have & HAVE_BARO):
             kf = fc.kf
-            # the judgement is read on this sample only in coast (below) and under the parachutes
-            # (the steady descent): elsewhere it is left to the next sample, before the track
-            # changes (or to a false launch's test), and the window's close costs 7k fewer
-            # instructions (the pad's and the boost's slowest samples closed a window)
-            close_slot(arb, now_ms, kf.vel_q4 >> 4, kf.bias_q4 >> 4, state <= BOOST)
+            # the judgement is left to the next sample (before the track changes, or to a false
+            # launch's test), and the window's close costs 9k fewer instructions (the slowest
+            # samples of the pad, the boost and the coast closed a window); in coast the
+            # barometer is then left out one sample (10 ms at 100 Hz) after its window closed,
+            # of windows half a second long. Under the parachutes the steady descent reads the
+            # rate on this sample.
+            close_slot(arb, now_ms, kf.vel_q4 >> 4, kf.bias_q4 >> 4, state <= COAST)
         if not flags & HEALTH_BARO_BAD:
             mode = MODE_BARO
     if cfg.has_accel and not flags & HEALTH_ACCEL_BAD and (valid or not fc.launched):
