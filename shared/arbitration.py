@@ -53,7 +53,7 @@ _DR_LIMIT_CS = const(30000)
 # window that ended _WINDOW_SLOTS earlier. Its noise is learnt while the test holds: the mean
 # absolute change over about 2 s of windows (1/_CHANGE_AVG_N per judgement, 20 per second), and
 # the tolerance is baro_change_mps plus _CHANGE_NOISE_K times it (a 20 Hz barometer with 6 m of
-# noise changes its rate by 25 m/s RMS from window to window, an AltOS part by 2 to 5 m/s). A
+# noise changes its rate by about 30 m/s RMS from window to window, an AltOS part by 2 to 5 m/s). A
 # single bad reading moves one slot, and so two windows that are 0.5 s apart; a step moves every
 # window that holds it: _CHANGE_RUN consecutive windows (0.15 s) make a step.
 _CHANGE_AVG_N = const(40)
@@ -358,12 +358,19 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
         else:
             arb._change_run = 0
             arb._change_avg_mmps = avg + (change - avg) // _CHANGE_AVG_N
+    else:
+        arb._change_run = 0  # three windows in a row, each judged by the test
     allowed = margin + arb.tol_mmps
     anchored = arb.anchored
     if anchored:
-        # out of use since an anchor: the velocity is known better, from the filter's then
+        # out of use since an anchor: the velocity is known better, from the filter's then, and
+        # below baro_change_below_mps to the change test's tolerance (a decaying transient's
+        # rate still lies by tens of m/s when the bounds' tolerance would take it back)
         diff += arb.anchor_track_mmps - arb.anchor_filter_mmps
-        allowed = margin - arb.anchor_margin_mmps + arb.tol_mmps
+        tol = arb.tol_mmps
+        if -arb.change_below_mmps < track_mmps < arb.change_below_mmps:
+            tol = arb.change_tol_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps
+        allowed = margin - arb.anchor_margin_mmps + tol
     if not stepped and -allowed <= diff and (diff <= allowed or not arb.upper_valid):
         # (a clipped track under-reads: it bounds the velocity from below only)
         agree_ms = arb._agree_ms

@@ -402,51 +402,52 @@ def test_accelerometer_frozen_flags_health():
 # not confirm, below baro_change_below_mps -------------------------------------------------------
 
 
-def _late_coast(lie_m, noise_m=0.0, rate_hz=100, seconds=8.0, pad_s=2.0, seed=3, **config):
-    """The barometer's consistency per slot on a vertical flight at rest for ``pad_s`` (the
-    change test learns the barometer's noise there), then from 30 m/s at -g: readings at
-    ``rate_hz`` with Gaussian ``noise_m`` plus ``lie_m(t_s)`` (t_s from the coast's start);
-    (t_s of each judged slot, baro_consistent then)."""
+def _late_coast(lie_m, noise_m=0.0, rate_hz=100, seconds=8.0, seed=3, **config):
+    """The barometer's consistency per slot in a drag-free coast from 60 m/s (apogee at 6.1 s;
+    the change test learns the barometer's noise from the start), the filter's velocity true:
+    readings at ``rate_hz`` with Gaussian ``noise_m`` plus ``lie_m(t_s)``; (t_s of each judged
+    slot, baro_consistent then). The barometer is anchored when it is left out, as the flight
+    computer does."""
     rng = np.random.default_rng(seed)
     arb = Arbitration(load_config(config))
     dt_ms = 1000 // rate_hz
+    vel_mps, alt_m = 60.0, 1000.0
+    arb.start(int(vel_mps * 1000))
     out = []
-    n_pad = int(pad_s * rate_hz)
-    vel_mps, alt_m = 30.0, 1000.0
-    for i in range(n_pad + int(seconds * rate_hz)):
+    for i in range(int(seconds * rate_hz)):
         now_ms = (i + 1) * dt_ms
-        coast = i >= n_pad
-        t_s = (i - n_pad + 1) * dt_ms / 1000
-        if coast:
-            vel_mps -= 9.807 * dt_ms / 1000
-            alt_m += vel_mps * dt_ms / 1000
-            integrate(arb, dt_ms, -9807, 0, False)
-        else:
-            integrate(arb, dt_ms, 0, 9807, False, restart=True)
-        reading_m = (alt_m if coast else 1000.0) + rng.normal(0.0, noise_m) + (lie_m(t_s) if coast else 0.0)
+        t_s = now_ms / 1000
+        vel_mps -= 9.807 * dt_ms / 1000
+        alt_m += vel_mps * dt_ms / 1000
+        integrate(arb, dt_ms, -9807, 0, False)
+        reading_m = alt_m + rng.normal(0.0, noise_m) + lie_m(t_s)
         if add_baro(arb, now_ms, int(reading_m * 1000), True):
-            close_slot(arb, now_ms, int(vel_mps * 1000) if coast else 0, 0)
-            if coast:
-                out.append((t_s, arb.baro_consistent))
+            was = arb.baro_consistent
+            close_slot(arb, now_ms, int(vel_mps * 1000), 0)
+            if was and not arb.baro_consistent:
+                arb.set_anchor()
+            out.append((t_s, arb.baro_consistent))
     return out
 
 
 def test_a_pressure_step_below_100_mps_is_not_motion():
-    # -40 m within 0.2 s, 1 s into the late coast: within the consistency margin (a rate of
-    # -200 m/s for 0.2 s reads -80 m/s over the window), but the rate changed by 150 m/s within
-    # half a second while the accelerometer's changed by 5 m/s
+    # -25 m within 0.2 s, 3 s into the coast (at 30 m/s): within the bounds (a rate of -125 m/s
+    # for 0.2 s reads -50 m/s over the window), but the rate changed by 50 m/s within half a
+    # second while the accelerometer's changed by 5 m/s
     def step(t_s):
-        return -40.0 * min(max((t_s - 1.0) / 0.2, 0.0), 1.0)
+        return -25.0 * min(max((t_s - 3.0) / 0.2, 0.0), 1.0)
     flags = _late_coast(step)
-    assert all(ok for t, ok in flags if t < 1.0)
-    assert not all(ok for t, ok in flags if 1.0 <= t <= 1.5)
+    assert all(ok for t, ok in flags if t < 3.0)
+    assert not all(ok for t, ok in flags if 3.0 <= t <= 3.5)
+    assert all(ok for t, ok in flags if t >= 5.0)  # then the bounds take it back
 
 
 def test_one_bad_reading_is_not_a_step():
-    # a single reading 40 m off moves one slot's mean by 8 m: two windows, half a second apart,
-    # change; a step changes every window that holds it (three in a row make a step)
+    # a single reading 100 m off moves one slot's mean by 20 m (a rate of 44 m/s over the
+    # window): two windows, half a second apart, change; a step changes every window that holds
+    # it (three in a row make a step)
     def spike(t_s):
-        return -40.0 if abs(t_s - 1.0) < 0.005 else 0.0
+        return -100.0 if abs(t_s - 3.0) < 0.005 else 0.0
     assert all(ok for _, ok in _late_coast(spike))
 
 
@@ -455,5 +456,21 @@ def test_a_noisy_barometer_is_not_a_step():
     # 30 m/s RMS from window to window: the learnt noise keeps the test quiet (the consistency
     # tolerance raised as docs/CONFIG.md tells for such a part, so that only this test speaks)
     for seed in (1, 2, 3):
-        assert all(ok for _, ok in _late_coast(lambda t_s: 0.0, noise_m=6.0, rate_hz=20, seconds=6.0,
-                                               seed=seed, baro_consistency_mps=200))
+        assert all(ok for _, ok in _late_coast(lambda t_s: 0.0, noise_m=6.0, rate_hz=20, seed=seed,
+                                               baro_consistency_mps=200))
+
+
+def test_a_decaying_transient_stays_out_until_its_rate_stops_lying():
+    # +200 m within 0.2 s, 3 s into the coast, then decaying at 50 m/s (gone at 7.2 s): once out,
+    # the barometer is judged against the filter's velocity before the fault, and below 100 m/s
+    # within the change test's tolerance (30 m/s plus the margin grown since, 41 m/s at 6 s), not
+    # the bounds' 50 m/s plus that margin, which took the lie back at 4.2 s, 3 s before it ended
+    def transient(t_s):
+        if t_s < 3.0:
+            return 0.0
+        if t_s < 3.2:
+            return 200.0 * (t_s - 3.0) / 0.2
+        return max(200.0 - 50.0 * (t_s - 3.2), 0.0)
+    flags = _late_coast(transient, seconds=9.0)
+    assert not any(ok for t, ok in flags if 3.5 <= t <= 7.0)
+    assert all(ok for t, ok in flags if t >= 8.0)
