@@ -340,10 +340,11 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
     # change slowly, and over half a second the accelerometer knows the change of velocity to
     # about 1 m/s: a barometric rate that changed by far more than the track's is a pressure step
     # (a -60 m step in the late coast pulled the filter's velocity through zero 2.8 s early)
+    below = arb.change_below_mmps
+    slow = -below < track_mmps < below
     stepped = False
     before = arb._diff[oldest]
-    if (arb.baro_consistent and before != _NO_DIFF
-            and -arb.change_below_mmps < track_mmps < arb.change_below_mmps):
+    if arb.baro_consistent and before != _NO_DIFF and slow:
         change = diff - before
         if change < 0:
             change = -change
@@ -368,7 +369,7 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
         # rate still lies by tens of m/s when the bounds' tolerance would take it back)
         diff += arb.anchor_track_mmps - arb.anchor_filter_mmps
         tol = arb.tol_mmps
-        if -arb.change_below_mmps < track_mmps < arb.change_below_mmps:
+        if slow:
             tol = arb.change_tol_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps
         allowed = margin - arb.anchor_margin_mmps + tol
     if not stepped and -allowed <= diff and (diff <= allowed or not arb.upper_valid):
