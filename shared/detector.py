@@ -82,6 +82,14 @@ class Detector:
                 self.fine_row = row
         self.dt_us = -1  # period the cached row belongs to
         self.regular = False  # the cached period is one period of a table rate
+        # the periods that select the cached row as regular (jitter around its period: no search
+        # of the table; empty when the cached period is irregular), and each row's
+        self.period_lo_us = 1
+        self.period_hi_us = 0
+        self.row_lo_us = array("i", [0] * len(table))
+        self.row_hi_us = array("i", [0] * len(table))
+        for i in range(len(table)):
+            self._row_window(i)
         self.predict_steps = 0  # predictions in the last step: 1 normally, more across a gap
         self.carry_us = 0  # time not yet predicted (irregular periods are predicted in whole steps)
         # per sensor (barometer, accelerometer): time since its last reading, since its last
@@ -127,7 +135,8 @@ class Detector:
         on MicroPython a method call costs as much as a dozen arithmetic operations (docs/BENCHMARKS.md,
         "Per-sample cost"); the helpers keep the rare cases (a gap, a rate change, an outlier).
         """
-        if dt_us != self.dt_us:  # re-select only when the period changes: this loops over the table
+        # re-select only when the period changes beyond the row's jitter: this loops over the table
+        if dt_us != self.dt_us and not self.period_lo_us <= dt_us <= self.period_hi_us:
             self._set_period(dt_us)
         kf = self.kf
         row = self.row
@@ -257,6 +266,26 @@ class Detector:
             self.sensor_row_us[sensor] = interval
         return self.sensor_row[sensor]
 
+    def _row_window(self, i):
+        """The periods for which ``_set_period`` selects row ``i`` as regular: within 1/8 of its
+        period, and nearer to it than to any other row (ends checked against ``_nearest``)."""
+        row = self.table[i]
+        period = 1000000 // row[0]
+        lo = period - period // 8
+        hi = period + period // 8
+        while lo <= hi and self._nearest(lo) is not row:
+            lo += 1
+        while hi >= lo and self._nearest(hi) is not row:
+            hi -= 1
+        self.row_lo_us[i] = lo
+        self.row_hi_us[i] = hi
+
+    def forget_period(self):
+        """Select the period again on the next step."""
+        self.dt_us = -1
+        self.period_lo_us = 1
+        self.period_hi_us = 0
+
     def _nearest(self, dt_us):
         """The table row whose period is nearest to ``dt_us`` (the slower on a tie)."""
         best = self.table[0]
@@ -344,4 +373,10 @@ class Detector:
         self.regular = err * 8 <= 1000000 // best[0]
         if self.regular:
             self.row = best
+            i = self.table.index(best)
+            self.period_lo_us = self.row_lo_us[i]
+            self.period_hi_us = self.row_hi_us[i]
+        else:
+            self.period_lo_us = 1
+            self.period_hi_us = 0
         self.dt_us = dt_us

@@ -601,7 +601,7 @@ class FlightComputer:
                  -G_MMPS2 if FAST <= state <= COAST else 0)
         self.agl_mm = self.max_agl_mm
         self.vel_mmps = vel_mmps
-        self.det.dt_us = -1
+        self.det.forget_period()
         self._gap_us = gap_ms * 1000  # the next step predicts across the reset
         self.settle_until_ms = self.now_ms + gap_ms + _RESUME_SETTLE_MS
         self.acc_account = False  # proof, if still owed, from one sensor alone

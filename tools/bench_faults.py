@@ -145,7 +145,8 @@ def flight_log(time_s, pressure_pa, accel_mps2, metadata):
 
 def run_flight_computer(log, overrides: dict) -> tuple[float, float]:
     """(drogue time, main time) of the flight computer on ``log`` (NaN when it did not fire): the
-    readings, ground reference and configuration of ``desktop replay``; stops at the main."""
+    readings, ground reference and configuration of ``desktop replay``; stops at the main (at the
+    drogue on a single-deployment flight: nothing after it is scored)."""
     from desktop.review.replay import config_for, ground_alt_mm, readings
     from shared.flight import EVENT_NAMES, FlightComputer
 
@@ -154,6 +155,7 @@ def run_flight_computer(log, overrides: dict) -> tuple[float, float]:
     fc = FlightComputer(config, ground_alt_mm=ground_alt_mm(log))
     ev_drogue = 1 << EVENT_NAMES.index("drogue")
     ev_main = 1 << EVENT_NAMES.index("main")
+    stop = ev_main if config.main_deploy_mm else ev_drogue
     step = fc.step
     drogue_i = main_i = -1
     for i, (d, a, f, h) in enumerate(zip(dt_us.tolist(), alt_mm.tolist(), accel.tolist(), have.tolist(),
@@ -165,6 +167,7 @@ def run_flight_computer(log, overrides: dict) -> tuple[float, float]:
                 drogue_i = i
             if ev & ev_main:
                 main_i = i
+            if ev & stop:
                 break
     t = log.time_s
     return (float(t[drogue_i]) if drogue_i >= 0 else math.nan, float(t[main_i]) if main_i >= 0 else math.nan)

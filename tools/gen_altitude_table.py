@@ -34,6 +34,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:  # run as a script: make the project's packages importable
     sys.path.insert(0, str(ROOT))
+from desktop.io.pressure_altitude import interpolate_mm  # noqa: E402
 from shared.physics import G0_MPS2 as G0  # noqa: E402
 
 OUTPUT = ROOT / "shared" / "altitude_table.py"
@@ -215,24 +216,8 @@ def evaluate_int(table, p_q4):
 
     Returns (alt_mm, largest |intermediate|).
     """
-    alt = np.array(table["alt"], dtype=np.int64)
-    start = np.array(table["band_start"], dtype=np.int64)
-    step = np.array(table["band_step"], dtype=np.int64)
-    first = np.array(table["band_node"], dtype=np.int64)
-    p = np.clip(np.asarray(p_q4, dtype=np.int64), P_MIN_Q4, P_MAX_Q4)
-    b = np.searchsorted(start, p, side="right") - 1
-    q = p - start[b]
-    s = step[b]
-    k = q // s
-    i = first[b] + k
-    lo = alt[i]
-    d = alt[i + 1] - lo
-    f = q - k * s
-    prod = d * f
-    num = prod + (s << (ALT_FRAC_BITS - 1))
-    out = (lo + num // s) >> ALT_FRAC_BITS
-    biggest = max(int(np.abs(a).max()) for a in (p, q, k * s, i, lo, d, prod, num, lo + num // s))
-    return out, biggest
+    return interpolate_mm(p_q4, table["alt"], table["band_start"], table["band_step"], table["band_node"],
+                          P_MIN_Q4, P_MAX_Q4, ALT_FRAC_BITS)
 
 
 def measure(table):

@@ -36,8 +36,8 @@ import numpy as np
 
 from desktop.errors import DesktopError
 from desktop.io.files import check_output_file, read_bytes
+from desktop.io.pressure_altitude import pressure_to_alt_mm_array
 from shared import logformat as fl
-from shared.altitude import pressure_to_alt_mm
 from shared.flight import EV_BACKUP_DROGUE, EV_BACKUP_MAIN, EVENT_NAMES, STATE_NAMES, FlightComputer
 
 _REC_DTYPE = np.dtype([
@@ -360,8 +360,7 @@ def log_differences(log, config):
     r, own, t_us = final_rows(log)
     q4 = r["pressure_q4_pa"].astype(np.int64)
     have = r["have"].astype(np.int64)
-    alt_mm = np.array([pressure_to_alt_mm(int(p)) if h & HAVE_BARO else 0
-                       for p, h in zip(q4, have, strict=True)])
+    alt_mm = np.where(have & HAVE_BARO, pressure_to_alt_mm_array(q4), 0)
     inputs = (r["dt_us"].astype(np.int64), alt_mm, r["accel_mmps2"].astype(np.int64), have)
     board = {name: r[name].astype(np.int64) for name in ("state", "flags")}
     board["events"] = board_events(r["events"], r["flags"])

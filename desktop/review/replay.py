@@ -15,6 +15,7 @@ from desktop.io.config_file import config_file_values
 from desktop.io.files import check_output_file
 from desktop.io.flightcsv import describe_duplicate_times
 from desktop.io.importers import read_flight
+from desktop.io.pressure_altitude import pressure_to_alt_mm_array
 from shared.altitude import pressure_to_alt_mm
 from shared.config import ConfigError, load_config
 from shared.detector import HAVE_ACCEL, HAVE_BARO
@@ -70,7 +71,7 @@ def readings(log):
     if log.pressure_pa is not None:
         ok = ~np.isnan(log.pressure_pa)
         q4 = np.where(ok, np.round(np.nan_to_num(log.pressure_pa) * 16), 0).astype(np.int64)
-        alt_mm = np.array([pressure_to_alt_mm(int(p)) for p in q4], dtype=np.int64)
+        alt_mm = pressure_to_alt_mm_array(q4)
         have |= np.where(ok, HAVE_BARO, 0)
     elif log.altitude_m is not None:
         ok = ~np.isnan(log.altitude_m)
