@@ -79,6 +79,7 @@ class Arbitration:
         self.tol_mmps = config.baro_consistency_mmps
         self.change_tol_mmps = config.baro_change_mmps
         self.change_below_mmps = config.baro_change_below_mmps
+        self.readmit_tol_mmps = config.baro_readmit_mmps
         self.valid = False  # the track runs (from launch, healthy accelerometer)
         self.upper_valid = False
         self.vel_mmps = 0
@@ -365,12 +366,12 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
     anchored = arb.anchored
     if anchored:
         # out of use since an anchor: the velocity is known better, from the filter's then, and
-        # below baro_change_below_mps to the change test's tolerance (a decaying transient's
-        # rate still lies by tens of m/s when the bounds' tolerance would take it back)
+        # below baro_change_below_mps to baro_readmit_mps and the learnt noise (a decaying
+        # transient's rate still lies by tens of m/s when the bounds' tolerance would take it back)
         diff += arb.anchor_track_mmps - arb.anchor_filter_mmps
         tol = arb.tol_mmps
         if slow:
-            tol = arb.change_tol_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps
+            tol = arb.readmit_tol_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps
         allowed = margin - arb.anchor_margin_mmps + tol
     if not stepped and -allowed <= diff and (diff <= allowed or not arb.upper_valid):
         # (a clipped track under-reads: it bounds the velocity from below only)

@@ -90,6 +90,10 @@ SCHEMA = {
         "accelerometer's within half a second (plus 3 x its learnt noise) is a pressure step, not motion"),
     "baro_change_below_mps": (100, 0, 1000, "m/s",
         "the change test applies below this vertical speed (the accelerometer's; 0 = off)"),
+    "baro_readmit_mps": (20, 1, 500, "m/s",
+        "below baro_change_below_mps, a barometer left out in coast comes back only when its rate "
+        "agrees within this (plus 3 x its learnt noise and the margin grown since) with the "
+        "accelerometer's velocity carried on from the filter's before the fault"),
     "dead_reckoning_guard_mps": (0, 0, 50, "m/s",
         "after the barometer was left out in coast: no apogee while the accelerometer's velocity "
         "carried on from the filter's before the fault exceeds this"),
@@ -170,6 +174,7 @@ class Config:
         self.baro_consistency_mmps = int(v["baro_consistency_mps"] * 1000)
         self.baro_change_mmps = int(v["baro_change_mps"] * 1000)
         self.baro_change_below_mmps = int(v["baro_change_below_mps"] * 1000)
+        self.baro_readmit_mmps = int(v["baro_readmit_mps"] * 1000)
         self.dead_reckoning_guard_mmps = int(v["dead_reckoning_guard_mps"] * 1000)
         self.baro_track_sq_q4 = int(v["baro_track_m"] ** 2 * 16)  # 1/16 m^2
         self.baro_step_rate_mmps = int(v["baro_step_rate_mps"] * 1000)
