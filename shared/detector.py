@@ -80,12 +80,11 @@ class Detector:
         for row in table:
             if row[0] > self.fine_row[0]:
                 self.fine_row = row
-        self.dt_us = -1  # period the cached row belongs to
         self.regular = False  # the cached period is one period of a table rate
-        # the periods that select the cached row as regular (jitter around its period: no search
-        # of the table; empty when the cached period is irregular), and each row's
-        self.period_lo_us = 1
-        self.period_hi_us = 0
+        # dt_us: the period the cached row belongs to; period_lo_us..period_hi_us: the periods
+        # that select the cached row as regular (jitter around its period: no search of the
+        # table; empty when the cached period is irregular), and each row's
+        self.forget_period()
         self.row_lo_us = array("i", [0] * len(table))
         self.row_hi_us = array("i", [0] * len(table))
         for i in range(len(table)):
@@ -268,15 +267,21 @@ class Detector:
 
     def _row_window(self, i):
         """The periods for which ``_set_period`` selects row ``i`` as regular: within 1/8 of its
-        period, and nearer to it than to any other row (ends checked against ``_nearest``)."""
-        row = self.table[i]
-        period = 1000000 // row[0]
+        period (``_set_period``'s test) and nearer to it than to any other row (``_nearest``: the
+        midpoint between two periods goes to the slower row)."""
+        period = 1000000 // self.table[i][0]
         lo = period - period // 8
         hi = period + period // 8
-        while lo <= hi and self._nearest(lo) is not row:
-            lo += 1
-        while hi >= lo and self._nearest(hi) is not row:
-            hi -= 1
+        for row in self.table:
+            other = 1000000 // row[0]
+            if other < period:  # a faster row: from the midpoint, rounded up, on
+                mid = (period + other + 1) >> 1
+                if mid > lo:
+                    lo = mid
+            elif other > period:  # a slower row: below the midpoint
+                mid = ((period + other + 1) >> 1) - 1
+                if mid < hi:
+                    hi = mid
         self.row_lo_us[i] = lo
         self.row_hi_us[i] = hi
 
@@ -377,6 +382,5 @@ class Detector:
             self.period_lo_us = self.row_lo_us[i]
             self.period_hi_us = self.row_hi_us[i]
         else:
-            self.period_lo_us = 1
-            self.period_hi_us = 0
+            self.forget_period()
         self.dt_us = dt_us

@@ -217,7 +217,7 @@ def evaluate_int(table, p_q4):
     Returns (alt_mm, largest |intermediate|).
     """
     return interpolate_mm(p_q4, table["alt"], table["band_start"], table["band_step"], table["band_node"],
-                          P_MIN_Q4, P_MAX_Q4, ALT_FRAC_BITS)
+                          P_MIN_Q4, P_MAX_Q4, ALT_FRAC_BITS, bound=True)
 
 
 def measure(table):

@@ -6,10 +6,12 @@ import numpy as np
 from shared import altitude_table as _TABLE
 
 
-def interpolate_mm(p_q4, alt_mm_q, band_start_q4, band_step_q4, band_node, p_min_q4, p_max_q4, frac_bits):
+def interpolate_mm(p_q4, alt_mm_q, band_start_q4, band_step_q4, band_node, p_min_q4, p_max_q4, frac_bits,
+                   bound=False):
     """Altitude (mm, int64 array) of the pressures ``p_q4`` (Pa x 16) in the table given by its
     arrays (shared/altitude_table.py's layout; node altitudes in mm with ``frac_bits`` fractional
-    bits), and the largest |intermediate| of the arithmetic (the table generator's 31-bit check)."""
+    bits); with ``bound``, (altitudes, the largest |intermediate| of the arithmetic): the table
+    generator's 31-bit check."""
     alt = np.asarray(alt_mm_q, dtype=np.int64)
     start = np.asarray(band_start_q4, dtype=np.int64)
     step = np.asarray(band_step_q4, dtype=np.int64)
@@ -25,6 +27,8 @@ def interpolate_mm(p_q4, alt_mm_q, band_start_q4, band_step_q4, band_node, p_min
     prod = d * (q - k * s)
     num = prod + (s << (frac_bits - 1))
     out = (lo + num // s) >> frac_bits
+    if not bound:
+        return out
     if not p.size:
         return out, 0
     biggest = max(int(np.abs(a).max()) for a in (p, q, k * s, i, lo, d, prod, num, lo + num // s))
@@ -34,4 +38,4 @@ def interpolate_mm(p_q4, alt_mm_q, band_start_q4, band_step_q4, band_node, p_min
 def pressure_to_alt_mm_array(p_q4):
     """``shared.altitude.pressure_to_alt_mm`` of every element of ``p_q4`` (Pa x 16): int64 mm."""
     return interpolate_mm(p_q4, _TABLE.ALT_Q2_MM, _TABLE.BAND_START_Q4, _TABLE.BAND_STEP_Q4,
-                          _TABLE.BAND_NODE, _TABLE.P_MIN_Q4, _TABLE.P_MAX_Q4, 2)[0]  # ALT_Q2: 2 bits
+                          _TABLE.BAND_NODE, _TABLE.P_MIN_Q4, _TABLE.P_MAX_Q4, 2)  # ALT_Q2: 2 bits

@@ -70,6 +70,25 @@ def test_period_selection_steps_across_gaps_at_the_rate_in_use(dt_us, prev_hz, r
     assert (det.row[0], det.predict_steps) == (rate, steps)
 
 
+@pytest.mark.parametrize("table_name", ["PROJECT", "SEED"])
+def test_a_row_is_kept_exactly_while_the_period_selects_it(table_name):
+    # the step skips the table search while a jittered period stays in the selected row's
+    # window: every period selects, by that search, the row whose window holds it, and regular
+    # exactly when one does (every window end and its neighbours, and a spread of periods)
+    det = Detector(getattr(gains_table, table_name), VelocityRule())
+    windows = list(zip(det.table, det.row_lo_us, det.row_hi_us, strict=True))
+    edges = [x + d for _, lo, hi in windows for x in (lo, hi) for d in (-1, 0, 1)]
+    for dt_us in edges + list(range(1, 130000, 97)):
+        det.forget_period()
+        det.row = None
+        det._set_period(dt_us)
+        holding = [row for row, lo, hi in windows if lo <= dt_us <= hi]
+        assert det.regular == bool(holding), dt_us
+        if holding:
+            assert holding == [det.row], dt_us
+            assert det.period_lo_us <= dt_us <= det.period_hi_us
+
+
 def test_predict_is_exact_constant_acceleration_kinematics():
     kf = Kalman()
     kf.reset(1000, 50000, -9807)  # 1 m, 50 m/s, -g
