@@ -100,6 +100,13 @@ SCHEMA = {
     "baro_track_m": (10, 2, 100, "m",
         "apogee on the barometer alone (no accelerometer in use) needs the filter within this of the "
         "barometer (RMS over 0.16 s; AltOS's 10 m): not while it re-converges or reads a transonic lie"),
+    "baro_diverged_m": (30, 10, 127, "m",
+        "apogee on the barometer alone (no accelerometer in use) waits baro_settle_s after the filter "
+        "was this far from the barometer (RMS over 0.16 s): its velocity is then a re-convergence "
+        "transient, not the motion"),
+    "baro_settle_s": (4, 0, 30, "s",
+        "how long apogee on the barometer alone waits after the filter was baro_diverged_m off it "
+        "(0 = off)"),
     "baro_step_rate_mps": (20, 0, 100, "m/s",
         "a barometer rejected by the gate for a second whose innovation then moves slower than this "
         "stepped (a pressure offset): the filter re-takes its altitude, not its velocity (0 = off)"),
@@ -177,6 +184,8 @@ class Config:
         self.baro_readmit_mmps = int(v["baro_readmit_mps"] * 1000)
         self.dead_reckoning_guard_mmps = int(v["dead_reckoning_guard_mps"] * 1000)
         self.baro_track_sq_q4 = int(v["baro_track_m"] ** 2 * 16)  # 1/16 m^2
+        self.baro_diverged_sq_q4 = int(v["baro_diverged_m"] ** 2 * 16)  # 1/16 m^2
+        self.baro_settle_ms = int(v["baro_settle_s"] * 1000)
         self.baro_step_rate_mmps = int(v["baro_step_rate_mps"] * 1000)
         self.baro_stuck_ms = int(v["baro_stuck_s"] * 1000)
         self.accel_stuck_ms = int(v["accel_stuck_s"] * 1000)

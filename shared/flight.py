@@ -276,6 +276,8 @@ class FlightComputer:
         # averaged squared distance between the barometer and the filter after its correction,
         # 1/16 m^2 (_RESID_TAU_MS, _RESID_CAP_M): small while the filter tracks the barometer
         self.resid_sq_avg_q4 = 0
+        # when that average last exceeded baro_diverged_m^2 in flight (so that the first samples pass)
+        self.off_baro_ms = -config.baro_settle_ms
         self.apogee_ms = -1
         self.drogue_due_ms = -1
         self.drogue_fired_ms = -1
@@ -666,7 +668,8 @@ def _apogee_enabled(fc, cfg, now_ms):
                      and arb.dead_reckoned_mmps(now_ms) > cfg.dead_reckoning_guard_mmps)
             and cfg.coast_decel_mmps2 << 4 <= -fc.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
             and (fc.coast_measured or not accel_ok)
-            and (accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4))
+            and (accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4
+                 and now_ms - fc.off_baro_ms >= cfg.baro_settle_ms))
 
 
 def _update_averages(fc, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms):
@@ -692,8 +695,11 @@ def _update_averages(fc, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms)
             resid_m = _RESID_CAP_M
         # (no clamp: the squares lie within 0..2**18, and so does their average)
         avg = fc.resid_sq_avg_q4
-        fc.resid_sq_avg_q4 = avg + ((resid_m * resid_m << 4) - avg) * (
+        avg += ((resid_m * resid_m << 4) - avg) * (
             dt_ms if dt_ms < _RESID_TAU_MS else _RESID_TAU_MS) // _RESID_TAU_MS
+        fc.resid_sq_avg_q4 = avg
+        if avg > cfg.baro_diverged_sq_q4 and state:  # (on the pad: the ground reference's)
+            fc.off_baro_ms = fc.now_ms
     if accel_ms >= 0:
         avg = fc.acc_meas_avg
         step = acc_kin - avg

@@ -139,14 +139,19 @@ def test_no_apogee_within_the_mach_time_lockout():
 
 def test_barometer_only_board_through_mach_without_its_lockout():
     """Without its mach_lockout_s, a barometer-only board through a static-port error is held at
-    apogee by two rules: the tracking check (baro_track_m, AltOS's "not transonic" rule) and no
-    apogee while the filter re-converges after its gate re-synchronised. Each alone holds it
-    (before the second rule, the widest tracking check let the drogue fire 19.5 s early); the
-    tests that each is needed: tests/tools/test_bench_faults.py."""
+    apogee by the tracking check (baro_track_m, AltOS's "not transonic" rule), by no apogee while
+    the filter re-converges after its gate re-synchronised, and by the baro_settle_s wait. Each
+    alone holds it (before the second rule, the widest tracking check let the drogue fire 19.5 s
+    early); the tests that each is needed: tests/tools/test_bench_faults.py. With the widest
+    tracking check and no wait, the boost's gate (boost_gate_m) holds it: without the gate that
+    drogue fires 19.3 s early."""
     fl = flight(MACH14_ROCKET, Faults(mach_c=-0.1, mach_sigma=0.05))
     backup_s = round(fl.apogee_s + 3)
     assert run(fl, "baro", backup_drogue_s=backup_s).early_s <= EARLY_LIMIT_S
     assert run(fl, "baro", backup_drogue_s=backup_s, baro_track_m=100).early_s <= EARLY_LIMIT_S
+    assert run(fl, "baro", backup_drogue_s=backup_s, baro_settle_s=0).early_s <= EARLY_LIMIT_S
+    assert run(fl, "baro", backup_drogue_s=backup_s, baro_track_m=100,
+               baro_settle_s=0).early_s <= EARLY_LIMIT_S
 
 
 @pytest.mark.parametrize("kind", ["frozen", "lost"])
