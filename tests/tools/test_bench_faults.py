@@ -90,11 +90,12 @@ def supersonic():
     return drag_flight(1000.0, 2.5, 3.0, 0.5 * math.pi * 0.039**2)
 
 
-def run(traj, fault, board="both", profile="ms5611+adxl375", seed=7):
-    """(drogue s, main s) of the flight computer on the faulted record."""
+def run(traj, fault, board="both", profile="ms5611+adxl375", seed=7, **config):
+    """(drogue s, main s) of the flight computer on the faulted record; ``config``: configuration
+    keys beside the user settings (a rule's threshold changed to show what the rule does)."""
     rec, pres, acc, clip = bench.faulted_record(traj, fault, profile, seed, bench.board_config(100.0))
     return bench.run_methods(rec, pres, acc, clip, board, MAIN_M,
-                             bench.user_settings(traj, MAIN_M))["flight-computer"]
+                             dict(bench.user_settings(traj, MAIN_M), **config))["flight-computer"]
 
 
 def fault(kind, **params):
@@ -217,17 +218,14 @@ def test_accelerometer_faults_with_a_healthy_barometer_within_0_3_s(subsonic, ki
 
 @pytest.mark.parametrize("start_s", [2.0, 2.3])
 @pytest.mark.parametrize("baro_track_m", [10, 100], ids=["tracking_check", "tracking_check_widest"])
-def test_accelerometer_lost_late_in_boost_of_a_supersonic_flight(supersonic, start_s, baro_track_m,
-                                                                 monkeypatch):
+def test_accelerometer_lost_late_in_boost_of_a_supersonic_flight(supersonic, start_s, baro_track_m):
     """The accelerometer dies with the motor still burning: the filter keeps the thrust in its
     acceleration. The barometer, now the only sensor, keeps its full weight through Mach, and the
     filter re-converges on it; the tracking check holds apogee back while it does. Each rule alone
     keeps the drogue at apogee (the widest check leaves the weight rule alone); without both it came
     17 s early at 270 m/s."""
-    run_fc = bench.run_flight_computer
-    monkeypatch.setattr(bench, "run_flight_computer",
-                        lambda log, overrides: run_fc(log, dict(overrides, baro_track_m=baro_track_m)))
-    drogue, _ = run(supersonic, fault("accel_lost", phase="boost", start_s=start_s))
+    drogue, _ = run(supersonic, fault("accel_lost", phase="boost", start_s=start_s),
+                    baro_track_m=baro_track_m)
     assert_within(supersonic, drogue, 0.1)
 
 
@@ -284,47 +282,38 @@ def test_baro_only_transient_in_mid_coast_never_fires_early(subsonic, dh_m, deca
 
 @pytest.mark.parametrize("baro_track_m, early", [(10, False), (100, True)],
                          ids=["tracking_check", "tracking_check_widest"])
-def test_baro_only_apogee_waits_for_the_filter_to_track_the_barometer(subsonic, baro_track_m, early,
-                                                                     monkeypatch):
+def test_baro_only_apogee_waits_for_the_filter_to_track_the_barometer(subsonic, baro_track_m, early):
     """-45 m within 0.1 s, 1 s before apogee, decaying over 2 s: inside the gate, so the filter
     follows it and its velocity dips through zero. The tracking check (baro_track_m) holds apogee
     until the filter is back on the barometer: 0.10 s early; at its widest, 0.73 s early."""
-    run_fc = bench.run_flight_computer
-    monkeypatch.setattr(bench, "run_flight_computer",
-                        lambda log, overrides: run_fc(log, dict(overrides, baro_track_m=baro_track_m)))
     drogue, _ = run(subsonic, fault("transient_midcoast", dh_m=-45.0, start_s=subsonic.apogee_time_s - 1.0,
-                                    rise_s=0.1, decay_s=2.0, hold_until_s=None), board="baro")
+                                    rise_s=0.1, decay_s=2.0, hold_until_s=None), board="baro",
+                    baro_track_m=baro_track_m)
     assert (subsonic.apogee_time_s - drogue > EARLY_S) == early
 
 
-def test_baro_only_apogee_waits_for_the_filter_to_reconverge_after_a_resync(subsonic, monkeypatch):
+def test_baro_only_apogee_waits_for_the_filter_to_reconverge_after_a_resync(subsonic):
     # +300 m within 0.3 s in mid coast, decaying over 2 s: the gate rejects it for a second, then
     # re-synchronises, and the re-converging filter's velocity swung through zero 5.65 s before
     # apogee. No apogee until the gate has re-armed (0.31 s early). The baro_settle_s wait holds
     # this flight too, so it is off here: this test speaks for the re-arm alone.
-    run_fc = bench.run_flight_computer
-    monkeypatch.setattr(bench, "run_flight_computer",
-                        lambda log, overrides: run_fc(log, dict(overrides, baro_settle_s=0)))
     start = 0.5 * (subsonic.burnout_time_s + subsonic.apogee_time_s)
     drogue, _ = run(subsonic, fault("transient_midcoast", dh_m=300.0, start_s=start, rise_s=0.3,
-                                    decay_s=2.0, hold_until_s=None), board="baro")
+                                    decay_s=2.0, hold_until_s=None), board="baro", baro_settle_s=0)
     assert_not_early(subsonic, drogue)
 
 
 @pytest.mark.parametrize("settle_s, early", [(None, False), (0, True)], ids=["settle", "no_settle"])
 def test_baro_only_apogee_waits_for_the_filter_to_settle_after_it_was_off_the_barometer(
-        subsonic, settle_s, early, monkeypatch):
+        subsonic, settle_s, early):
     """+80 m within 0.3 s, 5 s before apogee, decaying over 1 s: the gate rejects its peak for
     less than the second a re-synchronisation takes, and the filter, pulled off the barometer,
     swings back through the transient of its gains; its altitude tracks the barometer again while
     its velocity is still 16 m/s low. Waiting baro_settle_s (the default) after it was
     baro_diverged_m off the barometer: 0.26 s early; without the wait, 1.67 s early."""
-    if settle_s is not None:
-        run_fc = bench.run_flight_computer
-        monkeypatch.setattr(bench, "run_flight_computer",
-                            lambda log, overrides: run_fc(log, dict(overrides, baro_settle_s=settle_s)))
+    config = {} if settle_s is None else {"baro_settle_s": settle_s}
     drogue, _ = run(subsonic, fault("transient_midcoast", dh_m=80.0, start_s=subsonic.apogee_time_s - 5.0,
-                                    rise_s=0.3, decay_s=1.0, hold_until_s=None), board="baro")
+                                    rise_s=0.3, decay_s=1.0, hold_until_s=None), board="baro", **config)
     assert (subsonic.apogee_time_s - drogue > EARLY_S) == early
 
 
