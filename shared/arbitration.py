@@ -12,8 +12,11 @@ the true kinematic acceleration: both errors are within (1 / cos tilt - 1) of th
 ``margin_mmps`` grows each sample by
 (b + (1 / cos tilt - 1) max(|specific force|, |kinematic acceleration|)) dt, and the true vertical
 velocity lies within ``vel_mmps`` +- ``margin_mmps``. A clipped reading under-reads: the lower
-bound stays valid, the upper one does not (``upper_valid``). A frozen or lost accelerometer
-(``shared/health.py``) ends the track (``valid``).
+bound stays valid, the upper one does not (``upper_valid``). A coasting rocket's reading left out
+(beyond drag: a shock, a tumble, or a motor lighting before the boost rule takes it) holds the
+velocity; the margin grows 1 g x dt, and the upper bound alone by the reading beyond that
+(``upper_extra_mmps``, docs/DESIGN.md D19). A frozen or lost accelerometer (``shared/health.py``)
+ends the track (``valid``).
 
 Barometer consistency. Readings are averaged in slots of ``_SLOT_MS``; the climb rate between
 the newest slot and the one ``_WINDOW_SLOTS`` earlier is the mean vertical velocity over that
@@ -84,6 +87,10 @@ class Arbitration:
         self.upper_valid = False
         self.vel_mmps = 0
         self.margin_mmps = 0
+        # the upper bound's own margin: readings left out in coast beyond 1 g (thrust-like: a
+        # shock, a tumble, or a motor lighting), which the track did not add and the margin covers
+        # only to 1 g
+        self.upper_extra_mmps = 0
         self._vel_um = 0  # sub-mm/s remainders (um/s)
         self._margin_um = 0
         self.anchor_filter_mmps = 0  # see set_anchor
@@ -127,7 +134,7 @@ class Arbitration:
         self.valid = True
         self.upper_valid = True
         self.vel_mmps = vel_mmps
-        self.margin_mmps = 0
+        self.margin_mmps = self.upper_extra_mmps = 0
         self._vel_um = self._margin_um = 0
 
     def stop(self):
@@ -136,14 +143,26 @@ class Arbitration:
         self.upper_valid = False
         self.baro_consistent = True
 
-    def integrate_missing(self, dt_ms):
-        """An accelerometer sample missing (dropout, a reading not used): the velocity is
-        unknown by up to 1 g x dt more; the track's velocity holds."""
+    def integrate_missing(self, dt_ms, acc_mmps2):
+        """An accelerometer sample missing (dropout), or a coasting rocket's reading not used
+        (``acc_mmps2``, beyond drag: a shock, a tumble, or a motor lighting before the boost rule
+        takes it): the track's velocity holds, and the velocity is unknown by up to 1 g x dt more,
+        and upwards by the reading beyond 1 g x dt (``upper_extra_mmps``)."""
         if not self.valid:
             return
         if dt_ms > _DT_LIMIT_MS:
             dt_ms = _DT_LIMIT_MS
         self.margin_mmps = _clamp(self.margin_mmps + G_MMPS2 * dt_ms // 1000 + 1, _VEL_LIMIT_MMPS)
+        if acc_mmps2 > G_MMPS2:
+            if acc_mmps2 > _ACC_LIMIT:
+                acc_mmps2 = _ACC_LIMIT
+            self.upper_extra_mmps = _clamp(self.upper_extra_mmps + (acc_mmps2 - G_MMPS2) * dt_ms // 1000 + 1,
+                                           _VEL_LIMIT_MMPS)
+
+    def baro_agrees(self):
+        """The barometer's newest window was judged (a reading in each of its slots, its
+        judgement not deferred) and agreed with the accelerometer's bounds."""
+        return self.baro_consistent and not self._unjudged and not self.judge_due
 
     def lower_mmps(self):
         """The lowest vertical velocity the accelerometer allows."""
@@ -151,7 +170,7 @@ class Arbitration:
 
     def upper_mmps(self):
         """The highest vertical velocity the accelerometer allows."""
-        return self.vel_mmps + self.margin_mmps
+        return self.vel_mmps + self.margin_mmps + self.upper_extra_mmps
 
     def set_anchor(self):
         """The barometer is no longer usable: anchor the accelerometer-only velocity at the
@@ -184,9 +203,9 @@ class Arbitration:
 
     def anchored_upper_mmps(self):
         """Highest vertical velocity: the filter's at the anchor plus the track's change since,
-        plus the margin grown since."""
+        plus the margin grown since (and the upper bound's own, all of it)."""
         return (self.anchor_filter_mmps + self.vel_mmps - self.anchor_track_mmps
-                + self.margin_mmps - self.anchor_margin_mmps)
+                + self.margin_mmps - self.anchor_margin_mmps + self.upper_extra_mmps)
 
 
 # The per-sample updates: module-level functions taking the arbitration (on MicroPython a method
@@ -210,7 +229,7 @@ def integrate(arb, dt_ms, acc_kin_mmps2, specific_mmps2, clipped, restart=False)
         size = spec if spec < _ACC_LIMIT else _ACC_LIMIT
     if restart:
         arb.valid = arb.upper_valid = True
-        vel = vel_um = margin = margin_um = 0
+        arb.upper_extra_mmps = vel = vel_um = margin = margin_um = 0
     else:
         vel = arb.vel_mmps
         vel_um = arb._vel_um
@@ -373,8 +392,9 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
         if slow:
             tol = arb.readmit_tol_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps
         allowed = margin - arb.anchor_margin_mmps + tol
-    if not stepped and -allowed <= diff and (diff <= allowed or not arb.upper_valid):
-        # (a clipped track under-reads: it bounds the velocity from below only)
+    if not stepped and -allowed <= diff and (diff <= allowed + arb.upper_extra_mmps or not arb.upper_valid):
+        # (a clipped track under-reads: it bounds the velocity from below only; readings left
+        # out beyond 1 g widen its upper side)
         agree_ms = arb._agree_ms
         if agree_ms < 0:
             arb._agree_ms = agree_ms = t_ms

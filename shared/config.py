@@ -44,7 +44,8 @@ SCHEMA = {
         "the backup main never fires sooner than this after the main; without a usable barometer "
         "it fires this long after the main"),
     "launch_accel_mps2": (20, 5, 500, "m/s^2",
-        "boost: acceleration above 1 g sustained for launch_accel_time_s"),
+        "boost: acceleration above 1 g sustained for launch_accel_time_s (launch, and a motor lit "
+        "in coast: staging, air-start)"),
     "launch_accel_time_s": (0.1, 0.02, 2, "s", "how long the boost acceleration must be sustained"),
     "launch_height_m": (20, 5, 500, "m",
         "launch also when the filtered height exceeds this at launch_speed_mps (low thrust-to-weight; "
@@ -66,7 +67,8 @@ SCHEMA = {
         "(a glitch; resynchronised after 1 s)"),
     "coast_decel_mps2": (4.9, 1, 9.8, "m/s^2",
         "apogee needs the averaged deceleration to exceed this (coast ~ g)"),
-    "max_boost_s": (15, 1, 60, "s", "boost ends after this even without burnout"),
+    "max_boost_s": (15, 1, 60, "s", "a boost (launch, or a motor lit in coast) ends after this even without "
+        "burnout"),
     "mach_lockout_mps": (250, 50, 3000, "m/s",
         "above this estimated speed no apogee and the barometer is de-weighted"),
     "mach_baro_weight_pct": (37.5, 0, 100, "%", "barometer weight reached at 1.32 x mach_lockout_mps"),

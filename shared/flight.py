@@ -31,6 +31,8 @@ Transitions (``_transition``), each branch opening with its rule:
 | | | and speed); never with ERR_ORIENTATION or ERR_BARO_ERRATIC | `launch_accel_time_s` |
 | boost..coast | pad | not proven within 10 s of launch, still near the pad | `proof_climb_m` |
 | boost | fast/coast | filtered acceleration below -2.5 m/s^2, or the timeout | `max_boost_s` |
+| fast/coast | boost | ignition: the boost acceleration sustained again (staging, | `launch_accel_mps2`, |
+| | | an air-start), before apogee, a barometer in use agreeing | `launch_accel_time_s` |
 | fast | coast | estimated speed at or below the Mach lockout, and the time | `mach_lockout_mps`, |
 | | | lockout after launch over | `mach_lockout_s` |
 | coast | fast | estimated speed above the Mach lockout | `mach_lockout_mps` |
@@ -125,8 +127,11 @@ EV_MODE = const(128)  # the sensors the decisions rest on changed (``mode``, MOD
 # shared/logformat.py FLAG_PYRO_BACKUP_*)
 EV_BACKUP_DROGUE = const(256)
 EV_BACKUP_MAIN = const(512)
+# a motor lit in coast (staging, an air-start): back to boost (beyond the log record's event byte:
+# the log keeps the state, which goes from fast or coast back to boost)
+EV_IGNITION = const(1024)
 EVENT_NAMES = ("launch", "burnout", "apogee", "drogue", "main", "landed", "health", "mode",
-               "backup_drogue", "backup_main")
+               "backup_drogue", "backup_main", "ignition")
 
 # Decision modes (``mode``): which sensors are usable (docs/DESIGN.md, "Sensor arbitration").
 MODE_TIMER = const(0)  # neither: the backup timers only
@@ -153,8 +158,10 @@ _LATE_COAST_MMPS = const(30000)  # below this vertical speed in coast, accelerat
 GATE_ACC_MMPS2 = const(30000)
 _GATE_START_MS = const(500)
 # After burnout drag only decelerates: a kinematic acceleration above this (an axial specific force
-# above +0.5 g) is the motor's tail-off, an ejection charge, a shock or a tumbling rocket (no
-# staging). (Computed once here: on MicroPython an imported constant is a global, not folded.)
+# above +0.5 g) is the motor's tail-off, an ejection charge, a shock, a tumbling rocket, or a motor
+# lighting in coast (staging, an air-start: the boost rule takes the flight back to boost once the
+# thrust is sustained). (Computed once here: on MicroPython an imported constant is a global, not
+# folded.)
 _NOT_DRAG_MMPS2 = -G_MMPS2 // 2
 # The detector's phase (``_det_phase``): the state (0 to 6) plus one of these flags
 _PHASE_RESUMING = const(8)  # a resumed filter settling
@@ -256,6 +263,7 @@ class FlightComputer:
         self.flight_proven = False
         self.climb_ms = 0  # time above proof_climb_m, less the time below since (barometer)
         self.launch_ms = 0
+        self.ignition_ms = 0  # when the current burn began: the launch, or a motor lit in coast
         self.launch_by_height = False  # launched on height and speed, not on the boost
         self.acc_dv_mmps = 0  # speed integrated from the accelerometer since the push began
         self.acc_dv_max_mmps = 0
@@ -459,8 +467,9 @@ class FlightComputer:
             else:
                 accel_ms = -1
             _update_averages(self, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms)
-        if state <= BOOST:
-            _update_boost(self, cfg, accel_interval_us, accel_period_us, acc_kin, have, clipped)
+        if state <= COAST:
+            # (in fast and coast too: a motor lit in coast, staging or an air-start)
+            _update_boost(self, cfg, accel_interval_us, accel_period_us, acc_kin, measured_acc, clipped)
         if accel_read and not self.flight_proven:
             _integrate_accel(self, state, accel_since_us // 1000, acc_kin, clipped)
         _transition(self, cfg, state, apogee)
@@ -479,7 +488,7 @@ class FlightComputer:
         before (a bad reading on this sample re-based it: the filter goes back with it)."""
         self.launched = True
         self.launch_by_height = by_height
-        self.launch_ms = self.now_ms
+        self.launch_ms = self.ignition_ms = self.now_ms
         self.state = BOOST
         self.events |= EV_LAUNCH
         ground = self.pad.launch_ground()
@@ -714,12 +723,13 @@ def _update_averages(fc, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms)
 
 
 def _update_boost(fc, cfg, accel_interval_us, accel_period_us, acc_kin, have, clipped):
-    """Boost time (pad and boost): a boosting accelerometer reading after a boosting one adds the
-    time between them, the first of a run one accelerometer period (a long silence before it is
-    not known to be boost); a sample without an accelerometer reading leaves it as it is."""
+    """Boost time (pad to coast): a boosting accelerometer reading (or one clipped upwards) after a
+    boosting one adds the time between them, the first of a run one accelerometer period (a long
+    silence before it is not known to be boost); a sample without an accelerometer reading leaves
+    it as it is."""
     if not (have & HAVE_ACCEL or clipped):
         return
-    if acc_kin > cfg.launch_accel_mmps2 or clipped:
+    if acc_kin > cfg.launch_accel_mmps2 or clipped and acc_kin > 0:
         boost_ms = fc.boost_ms
         boost_ms += (accel_interval_us if boost_ms else accel_period_us) // 1000
         fc.boost_ms = boost_ms
@@ -829,10 +839,25 @@ def _transition(fc, cfg, state, apogee):
                 or now_ms - fc.launch_ms < cfg.mach_lockout_ms)
         if state == BOOST:
             # burnout: the filtered acceleration turns negative, or the boost timeout
-            if kf.acc_q4 < -2500 * 16 or now_ms - fc.launch_ms > cfg.max_boost_ms:
+            if kf.acc_q4 < -2500 * 16 or now_ms - fc.ignition_ms > cfg.max_boost_ms:
                 fc.burnout_ms = now_ms
                 fc.events |= EV_BURNOUT
                 fc.state = FAST if fast else COAST
+                fc.boost_ms = 0  # an ignition in coast needs boost readings of its own
+        elif (fc.boost_ms >= cfg.launch_accel_ms and fc.apogee_ms < 0
+              and (fc.arb.baro_agrees() if fc.mode & MODE_BARO else not fc.baro_excluded)):
+            # ignition in coast, before apogee: the launch's boost rule again (a motor lit:
+            # staging, an air-start), while a barometer in use agrees with the accelerometer's
+            # bounds on its newest window (a tumbling rocket reads thrust-like forces while the
+            # barometer tops out, and a violent event spikes the barometer: 319-005); an excluded
+            # barometer refuses it, none (lost, frozen, absent) leaves it to the accelerometer.
+            # The filter's acceleration, held at or below the coast's ceiling until now, starts
+            # from the least the boost readings showed (from the ceiling, burnout would be
+            # declared at once)
+            fc.ignition_ms = now_ms
+            fc.state = BOOST
+            fc.events |= EV_IGNITION
+            kf.acc_q4 = cfg.launch_accel_mmps2 << 4
         elif state == FAST:
             if not fast:
                 fc.state = COAST
@@ -994,12 +1019,14 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
     elif have & HAVE_ACCEL or clipped:
         fc._arb_ms = now_ms
         if coasting and acc_kin > _NOT_DRAG_MMPS2 and not clipped:
-            arb.integrate_missing(dt_ms)  # not drag: a shock or an ejection (see step)
+            # not drag: a shock, an ejection, a tumble, or thrust (see step): the track holds, its
+            # margin covers the reading
+            arb.integrate_missing(dt_ms, acc_kin)
         else:
             integrate(arb, dt_ms, acc_kin, accel_mmps2, clipped, restart)
     elif dt_ms * 1000 > _ACCEL_HOLD_US:
         fc._arb_ms = now_ms
-        arb.integrate_missing(dt_ms)  # no usable reading for that long: unknown by 1 g x dt
+        arb.integrate_missing(dt_ms, G_MMPS2)  # no usable reading for that long: unknown by 1 g x dt
     mode = 0
     if cfg.has_baro:
         if add_baro(arb, now_ms, alt_mm, have & HAVE_BARO):

@@ -232,7 +232,7 @@ PROFILE = (
     ("padcal._apply", "module:shared.padcal", "_apply", 5),
     ("padcal._check_orientation", "module:shared.padcal", "_check_orientation", 2),
     ("arbitration.integrate", "module:shared.flight", "integrate", 6),
-    ("Arbitration.integrate_missing", "arb", "integrate_missing", 1),
+    ("Arbitration.integrate_missing", "arb", "integrate_missing", 2),
     ("arbitration.add_baro", "module:shared.flight", "add_baro", 4),
     ("arbitration.close_slot", "module:shared.flight", "close_slot", 5),
     ("arbitration.judge_late", "module:shared.flight", "judge_late", 1),

@@ -31,7 +31,8 @@ PAD_TESTS = "tests/shared/test_pad_launch_proof.py"
 FLIGHT_TESTS = "tests/shared/test_flight.py"
 ARB_TESTS = "tests/shared/test_arbitration.py"
 BACKUP_TESTS = "tests/shared/test_backup_charges.py"
-FAST_LANE = [FLIGHT_TESTS, PAD_TESTS, ARB_TESTS, BACKUP_TESTS, "-m",
+STAGING_TESTS = "tests/shared/test_staging.py"
+FAST_LANE = [FLIGHT_TESTS, PAD_TESTS, ARB_TESTS, BACKUP_TESTS, STAGING_TESTS, "-m",
              "not slow and not micropython"]
 
 # (name, file, original, mutated, test that must fail)
@@ -364,6 +365,27 @@ MUTANTS = [
      'if config.values[key] and ch not in board["pyro"]:',
      "if False:",
      "tests/device/test_device_backup_channels.py::test_config_needs_the_backup_channels"),
+    # a motor lit in coast (docs/DESIGN.md D18)
+    ("ignition-in-coast", FLIGHT,
+     "elif (fc.boost_ms >= cfg.launch_accel_ms and fc.apogee_ms < 0",
+     "elif (False and fc.boost_ms >= cfg.launch_accel_ms and fc.apogee_ms < 0",
+     STAGING_TESTS + "::test_a_motor_lit_in_coast_never_fires_the_drogue_early[both-9.0-air_start]"),
+    ("ignition-sustained", FLIGHT,
+     "elif (fc.boost_ms >= cfg.launch_accel_ms and fc.apogee_ms < 0",
+     "elif (fc.boost_ms > 0 and fc.apogee_ms < 0",
+     STAGING_TESTS + "::test_only_a_sustained_boost_is_an_ignition"),
+    ("ignition-needs-the-barometer", FLIGHT,
+     "and (fc.arb.baro_agrees() if fc.mode & MODE_BARO else not fc.baro_excluded)):",
+     "):",
+     "tests/desktop/test_replay_altos.py::test_anomalous_flight_within_its_window"),
+    ("burnout-ends-the-boost-run", FLIGHT,
+     "fc.boost_ms = 0  # an ignition in coast needs boost readings of its own",
+     "pass",
+     STAGING_TESTS + "::test_an_accelerometer_lost_in_the_boost_is_no_ignition"),
+    ("upper-bound-covers-thrust", ARB,
+     "if acc_mmps2 > G_MMPS2:",
+     "if False:",
+     STAGING_TESTS + "::test_velocity_bounds_hold_through_a_second_burn"),
 ]
 
 

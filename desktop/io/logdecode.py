@@ -38,7 +38,18 @@ from desktop.errors import DesktopError
 from desktop.io.files import check_output_file, read_bytes
 from desktop.io.pressure_altitude import pressure_to_alt_mm_array
 from shared import logformat as fl
-from shared.flight import EV_BACKUP_DROGUE, EV_BACKUP_MAIN, EVENT_NAMES, STATE_NAMES, FlightComputer
+from shared.flight import (
+    BOOST,
+    COAST,
+    EV_BACKUP_DROGUE,
+    EV_BACKUP_MAIN,
+    EV_IGNITION,
+    EVENT_NAMES,
+    FAST,
+    PAD,
+    STATE_NAMES,
+    FlightComputer,
+)
 
 _REC_DTYPE = np.dtype([
     ("dt_us", "<u4"), ("pressure_q4_pa", "<i4"), ("accel_mmps2", "<i4"), ("alt_q4", "<i4"),
@@ -226,9 +237,10 @@ def final_rows(log):
 _BACKUP_FLAGS = ((fl.FLAG_PYRO_BACKUP_DROGUE, EV_BACKUP_DROGUE), (fl.FLAG_PYRO_BACKUP_MAIN, EV_BACKUP_MAIN))
 
 
-def board_events(events, flags):
-    """The flight computer's events per record: the record's event byte, and each backup channel's
-    event on the record where its output flag rises (shared/logformat.py). Old logs never set
+def board_events(events, flags, states):
+    """The flight computer's events per record: the record's event byte, each backup channel's
+    event on the record where its output flag rises, and an ignition in coast on the record where
+    the state goes from fast or coast back to boost (shared/logformat.py). Old logs never set
     those flags: their events are the byte."""
     out = np.asarray(events).astype(np.int64)
     flags = np.asarray(flags).astype(np.int64)
@@ -236,6 +248,9 @@ def board_events(events, flags):
         on = flags & flag != 0
         rise = on & ~np.concatenate([[False], on[:-1]])
         out = out | np.where(rise, event, 0)
+    states = np.asarray(states).astype(np.int64)
+    before = np.concatenate([[PAD], states[:-1]])
+    out = out | np.where((states == BOOST) & ((before == FAST) | (before == COAST)), EV_IGNITION, 0)
     return out
 
 
@@ -264,7 +279,7 @@ def to_columns(log):
         "pressure_pa": pressure,
         "accel_mps2": accel,
         "board_state": r["state"].astype(np.int64),
-        "board_events": board_events(r["events"], r["flags"]),
+        "board_events": board_events(r["events"], r["flags"], r["state"]),
         "board_flags": r["flags"].astype(np.int64),
         "board_alt_q4": owned("alt_q4"),
         "board_vel_q4": owned("vel_q4"),
@@ -363,7 +378,7 @@ def log_differences(log, config):
     alt_mm = np.where(have & HAVE_BARO, pressure_to_alt_mm_array(q4), 0)
     inputs = (r["dt_us"].astype(np.int64), alt_mm, r["accel_mmps2"].astype(np.int64), have)
     board = {name: r[name].astype(np.int64) for name in ("state", "flags")}
-    board["events"] = board_events(r["events"], r["flags"])
+    board["events"] = board_events(r["events"], r["flags"], r["state"])
     for name in ("alt_q4", "vel_q4", "acc_q4"):
         board[name] = np.where(own, r[name], np.nan)
     return t_us, differences(inputs, board, config)

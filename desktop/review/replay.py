@@ -185,9 +185,9 @@ def register(subparsers):
     p = subparsers.add_parser(
         "replay", help="replay a flight CSV through the board's state machine",
         description="Feed every sample of a flight CSV (docs/FLIGHT_CSV.md) through the exact "
-                    "shared/ code the board runs, and print the events: launch, burnout, apogee, "
-                    "drogue, main, landed, with their time in the file's time base and the filtered "
-                    "altitude above the pad.")
+                    "shared/ code the board runs, and print the events: launch, burnout, ignition "
+                    "(a motor lit in coast), apogee, drogue, main, landed, with their time in the "
+                    "file's time base and the filtered altitude above the pad.")
     p.add_argument("file", help="flight CSV, or an export docs/IMPORT.md lists (format detected)")
     p.add_argument("--config", help="flight configuration JSON (docs/CONFIG.md); defaults otherwise")
     p.add_argument("--main-altitude", type=float, metavar="M",

@@ -172,6 +172,10 @@ def summary(result, log, units):
     if "burnout" in ev:
         b = ev["burnout"]
         rows.append(("burnout", f"{b.time_s:.2f} s at {b.altitude_m * u.factor:.1f} {u.name}"))
+    lit = [e for e in result.events if e.event == "ignition"]  # a motor lit in coast (staging)
+    if lit:
+        rows.append(("ignition in coast", ", ".join(
+            f"{e.time_s:.2f} s at {e.altitude_m * u.factor:.1f} {u.name}" for e in lit)))
     end = float(t[-1])
     t_main = ev["main"].time_s if "main" in ev else None
     t_landed = ev["landed"].time_s if "landed" in ev else None

@@ -12,13 +12,14 @@ import numpy as np
 import pytest
 
 from desktop.errors import InputFileError
-from desktop.io.logdecode import LogDecodeError, board_config, check_log, read_log, write_csv
+from desktop.io.logdecode import LogDecodeError, board_config, check_log, read_log, to_columns, write_csv
 from device import flightlog as fl
 from device.status import digits_pattern
 from shared.altitude import pressure_to_alt_mm
 from shared.config import load_config
-from shared.flight import FlightComputer
+from shared.flight import EV_IGNITION, EV_LAUNCH, FlightComputer
 from tests.support.decoded_replay import check_replay
+from tests.support.fault_flight import AIR_START_ROCKET, fly
 from tools.synthetic_flight import make_flight
 
 
@@ -26,9 +27,15 @@ def _pressure_q4(alt_mm):
     return int(round(101325.0 * (1 - 2.25577e-5 * alt_mm / 1000) ** 5.25588 * 16))
 
 
-def make_log(path, rate_hz=50, seed=3, ram_kb=512, header_extra=None):
-    """Write a board-format log of a synthetic flight; returns (FlightComputer, LogBuffer)."""
-    dts, alts, accs, _truth, _apogee = make_flight(rate_hz=rate_hz, seed=seed, pad_s=3, after_apogee_s=4)
+def make_log(path, rate_hz=50, seed=3, ram_kb=512, header_extra=None, flight=None):
+    """Write a board-format log of a synthetic flight (or of ``flight``: arrays of altitude in mm,
+    specific force in mm/s^2 and ``have``, at ``rate_hz``); returns (FlightComputer, LogBuffer)."""
+    if flight is None:
+        _dts, alts, accs, _truth, _apogee = make_flight(rate_hz=rate_hz, seed=seed, pad_s=3, after_apogee_s=4)
+        specific = [a + 9807 for a in accs]
+        haves = [3 if i % 2 == 0 else 2 for i in range(len(alts))]  # barometer at half the rate
+    else:
+        alts, specific, haves = flight
     config = load_config({})
     fc = FlightComputer(config)
     log = fl.LogBuffer(ram_kb * 1024)
@@ -38,17 +45,17 @@ def make_log(path, rate_hz=50, seed=3, ram_kb=512, header_extra=None):
     header.update(header_extra or {})
     with open(path, "wb") as f:
         f.write(fl.file_header(json.dumps(header)))
-        for i in range(len(dts)):
-            q4 = _pressure_q4(alts[i])
-            acc = accs[i] + 9807
-            have = 3 if i % 2 == 0 else 2  # barometer at half the rate
+        for i in range(len(alts)):
+            q4 = _pressure_q4(int(alts[i]))
+            acc = int(specific[i])
+            have = int(haves[i])
             fc.step(period, pressure_to_alt_mm(q4), acc, have)
             kf = fc.kf
             # pyro output levels, as device/flightloop.py logs them
             flags = (fl.FLAG_PYRO_DROGUE if fc.pyro_drogue else 0) | (
                 fl.FLAG_PYRO_MAIN if fc.pyro_main else 0)
-            log.record(period, q4, acc, kf.alt_q4, kf.vel_q4, kf.acc_q4, have, fc.state, fc.events, flags,
-                       1500, 100)
+            log.record(period, q4, acc, kf.alt_q4, kf.vel_q4, kf.acc_q4, have, fc.state,
+                       fc.events & fl.EVENTS_MASK, flags, 1500, 100)
         log.write_all(f)
         log.write_text(f, fl.KIND_SUMMARY, json.dumps({"reason": "test", "max_agl_mm": fc.max_agl_mm}))
     return fc, log
@@ -73,6 +80,24 @@ def test_log_replays_bit_identically(tmp_path):
     assert "ground_pressure_pa" not in text  # the board calibrated on its pad: so must the replay
     row = [x for x in text.splitlines() if x[:1].isdigit() or x[:1] == "-"][0].split(",")
     assert len(row[1].split(".")[1]) == 4  # Pa x 16 written exactly
+
+
+def test_log_of_a_staged_flight_keeps_the_ignition(tmp_path):
+    # the record's event byte has no room for it: the decoder restores it where the logged state
+    # goes back to boost (docs/DESIGN.md D19), and the replay agrees on every row
+    flight = fly(AIR_START_ROCKET, after_apogee_s=3.0)
+    fc, _log = make_log(tmp_path / "flight.log", rate_hz=100,
+                        flight=(flight.alt_mm, flight.accel_mmps2, flight.have))
+    log = read_log(tmp_path / "flight.log")
+    cols, _meta = to_columns(log)
+    ignitions = np.flatnonzero(cols["board_events"] & EV_IGNITION)
+    assert len(ignitions) == 1
+    # the log's time counts from the launch, which the board sees 0.09 s after the first motor
+    # lit, and the ignition takes the launch's 0.1 s of boost too
+    launch = np.flatnonzero(cols["board_events"] & EV_LAUNCH)[0]
+    since_launch_s = cols["time_s"][ignitions[0]] - cols["time_s"][launch]
+    assert abs(since_launch_s - AIR_START_ROCKET.motor2_at_s) <= 0.02, since_launch_s
+    assert check_log(log, board_config(log))[1] == []
 
 
 def test_truncated_last_block_loses_only_that_block(tmp_path):

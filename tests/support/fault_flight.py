@@ -1,8 +1,8 @@
 """Physical flights with sensor faults, for the arbitration and health tests.
 
-A vertical flight from the equations of motion (thrust, transonic drag, ISA atmosphere), read by
-a barometer and an axial accelerometer as the board would, with the faults of issue 13 injected
-from physics rather than fitted to a log:
+A vertical flight from the equations of motion (thrust, transonic drag, ISA atmosphere; a second
+motor lit in coast for staging or an air-start), read by a barometer and an axial accelerometer as
+the board would, with the faults of issue 13 injected from physics rather than fitted to a log:
 
 - transonic static-port error: the static pressure reads p (1 + c exp(-(M - 1)^2 / (2 sigma^2)))
   (c of either sign, up to 10 %; sigma 0.05 to 0.3 in Mach), on the way up (and down if fast);
@@ -42,7 +42,8 @@ def isa(h_m):
 
 @dataclass
 class Rocket:
-    """Dry mass, propellant, thrust and burn time, drag coefficient and diameter."""
+    """Dry mass, propellant, thrust and burn time, drag coefficient and diameter; optionally a
+    second motor lit in coast (a sustainer after staging, or an air-start)."""
 
     dry_kg: float = 1.2
     prop_kg: float = 0.35
@@ -51,11 +52,43 @@ class Rocket:
     cd: float = 0.45
     diameter_m: float = 0.041
     descent_mps: float = 25.0  # under the drogue (the flight does not depend on the board)
+    motor2_at_s: float = None  # flight time the second motor lights (None: one motor)
+    motor2_thrust_n: float = 0.0
+    motor2_burn_s: float = 0.0
+    motor2_prop_kg: float = 0.0  # also carried from the start (part of the dry mass after)
+    booster_kg: float = 0.0  # dropped at the first motor's burnout (staging)
+
+    def thrust_and_mass(self, t):
+        """Thrust (N) and mass (kg) at flight time t."""
+        thrust = self.thrust_n if t < self.burn_s else 0.0
+        mass = self.dry_kg + self.prop_kg * max(0.0, 1 - t / self.burn_s)
+        if t >= self.burn_s:
+            mass -= self.booster_kg
+        if self.motor2_at_s is not None:
+            since = t - self.motor2_at_s
+            if 0 <= since < self.motor2_burn_s:
+                thrust += self.motor2_thrust_n
+            mass += self.motor2_prop_kg * min(1.0, max(0.0, 1 - since / self.motor2_burn_s))
+        return thrust, mass
+
+    def burning_until_s(self):
+        """The end of the last burn."""
+        if self.motor2_at_s is None:
+            return self.burn_s
+        return max(self.burn_s, self.motor2_at_s + self.motor2_burn_s)
 
 
 # A 38 mm minimum-diameter flight to about Mach 1.4 and a subsonic high-power flight.
 MACH_ROCKET = Rocket()
 SUBSONIC_ROCKET = Rocket(dry_kg=2.0, prop_kg=0.25, thrust_n=600.0, burn_s=1.5, cd=0.5, diameter_m=0.066)
+# A motor lit in coast, 3 s after the first burns out: a two-stage minimum-diameter flight to about
+# Mach 2 (the booster's case dropped at staging), and a 66 mm sport rocket whose larger air-started
+# second motor takes it to about Mach 2.5.
+TWO_STAGE_ROCKET = Rocket(dry_kg=3.0, prop_kg=0.6, thrust_n=1200.0, burn_s=1.8, diameter_m=0.054,
+                          booster_kg=0.5, motor2_at_s=4.8, motor2_thrust_n=400.0, motor2_burn_s=2.5,
+                          motor2_prop_kg=0.3)
+AIR_START_ROCKET = Rocket(dry_kg=2.0, prop_kg=0.25, thrust_n=600.0, burn_s=1.5, cd=0.5, diameter_m=0.066,
+                          motor2_at_s=4.5, motor2_thrust_n=900.0, motor2_burn_s=2.5, motor2_prop_kg=0.3)
 
 
 @dataclass
@@ -111,14 +144,14 @@ def fly(rocket=MACH_ROCKET, faults=None, rate_hz=100, pad_s=3.0, after_apogee_s=
     n_pad = int(pad_s * rate_hz)
     for _ in range(n_pad):
         rows.append((-pad_s + len(rows) * dt, 0.0, 0.0, G, 0.0))
+    burns_until_s = rocket.burning_until_s()
     while True:
-        burning = t < rocket.burn_s
-        mass = rocket.dry_kg + rocket.prop_kg * max(0.0, 1 - t / rocket.burn_s)
+        thrust, mass = rocket.thrust_and_mass(t)
         p, rho, a_snd = isa(site_m + h)
         mach = abs(v) / a_snd
         if apogee_s is None:
             drag = 0.5 * rho * v * abs(v) * _drag_cd(rocket.cd, mach) * area
-            force = (rocket.thrust_n if burning else 0.0) - drag
+            force = thrust - drag
             specific = force / mass  # axial specific force (the accelerometer's quantity)
             acc = specific - G
             if h <= 0 and acc < 0 and t < rocket.burn_s:
@@ -131,7 +164,7 @@ def fly(rocket=MACH_ROCKET, faults=None, rate_hz=100, pad_s=3.0, after_apogee_s=
         rows.append((t, h, v, specific, mach))
         v_new = v + acc * dt
         h += (v + v_new) / 2 * dt
-        if apogee_s is None and v > 0 and v_new <= 0:
+        if apogee_s is None and v > 0 and v_new <= 0 and t >= burns_until_s:
             apogee_s = t + dt * v / (v - v_new)
             apogee_m = h
         v = v_new
