@@ -468,8 +468,12 @@ class FlightComputer:
                 accel_ms = -1
             _update_averages(self, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms)
         if state <= COAST:
-            # (in fast and coast too: a motor lit in coast, staging or an air-start)
-            _update_boost(self, cfg, accel_interval_us, accel_period_us, acc_kin, measured_acc, clipped)
+            # (in fast and coast too: a motor lit in coast, staging or an air-start; there, a
+            # reading below the boost only ends a run, written out: most coast samples)
+            if state <= BOOST or acc_kin > cfg.launch_accel_mmps2 or clipped:
+                _update_boost(self, cfg, accel_interval_us, accel_period_us, acc_kin, measured_acc, clipped)
+            elif measured_acc:
+                self.boost_ms = 0
         if accel_read and not self.flight_proven:
             _integrate_accel(self, state, accel_since_us // 1000, acc_kin, clipped)
         _transition(self, cfg, state, apogee)
