@@ -26,7 +26,8 @@ work time of the sample (read + step + outputs, us, saturated at 65535).
 events (bits 8 and 9) do not fit that byte: the record keeps their output levels in
 FLAG_PYRO_BACKUP_DROGUE / FLAG_PYRO_BACKUP_MAIN, and a backup fired on the first record whose
 flag is set (a pulse lasts at least 10 ms: pulse_ms). Logs written before these flags existed
-never set them: they decode as before.
+never set them: they decode as before. An ignition in coast (bit 10) is the record whose ``state``
+goes from fast or coast back to boost.
 """
 
 import struct
