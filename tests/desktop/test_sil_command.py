@@ -7,9 +7,12 @@ import json
 import pytest
 
 from desktop.cli import main
+from desktop.io.flightcsv import write_flight_csv
 from desktop.io.importers import read_flight
-from desktop.io.logdecode import read_log
+from desktop.io.logdecode import read_log, to_columns
 from desktop.review.replay import config_for, replay
+from shared.flight import EV_IGNITION, EV_LAUNCH
+from tests.support.fault_flight import AIR_START_ROCKET, fly
 
 EXAMPLE = "examples/logs/sil_flight.log"
 ALTOS = "tests/data/flights/altos/2012-04-07-serial-882-flight-001.csv"
@@ -69,6 +72,33 @@ def test_recorded_altos_flight_through_the_firmware(tmp_path, capsys):
     desktop = replay(log, config_for(log))
     assert abs(report["drogue_pulses_log_s"][0] - desktop.first("drogue").time_s) <= 3 * PERIOD_S
     assert abs(report["main_pulses_log_s"][0] - desktop.first("main").time_s) <= 2.5 * DESCENT_PERIOD_S
+
+
+@pytest.mark.micropython
+@pytest.mark.slow
+def test_staged_flight_through_the_firmware(tmp_path, capsys):
+    # an air-started second motor (docs/DESIGN.md D19): the firmware goes back to boost when it
+    # lights, fires the drogue at apogee, and its log restores the ignition that the record's
+    # event byte has no room for
+    fl = fly(AIR_START_ROCKET, after_apogee_s=5.0)
+    flight = tmp_path / "staged.csv"
+    pressure = 101325.0 * (1 - 2.25577e-5 * fl.alt_mm / 1000) ** 5.25588  # standard troposphere
+    write_flight_csv(flight, {"time_s": fl.time_s, "pressure_pa": pressure,
+                              "accel_mps2": fl.accel_mmps2 / 1000})
+    out = tmp_path / "board"
+    assert main(["sil", "--out", str(out), "--flight", str(flight), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert main(["replay", "--check", str(out / "flight.log")]) == 0
+    cols, _meta = to_columns(read_log(out / "flight.log"))
+    events, t = cols["board_events"], cols["time_s"]
+    (lit_s,) = t[events & EV_IGNITION != 0] - t[events & EV_LAUNCH != 0][0]  # (from the launch)
+    assert abs(lit_s - AIR_START_ROCKET.motor2_at_s) <= 0.15
+    # the drogue where the desktop replay of the same recording fires it: within three periods of
+    # the 50 Hz board (the recording is at 100 Hz)
+    log = read_flight(flight)
+    desktop = replay(log, config_for(log))
+    assert abs(report["drogue_pulses_log_s"][0] - desktop.first("drogue").time_s) <= 3 * PERIOD_S
+    assert abs(desktop.first("drogue").time_s - fl.apogee_s) <= 0.05
 
 
 def test_sil_refuses_a_flight_without_accelerometer(tmp_path, capsys):
