@@ -17,7 +17,7 @@ from desktop.review.replay import config_for, replay
 from desktop.review.report import UNITS, figure, summary
 from shared.physics import G0_MPS2
 from tests.support import altos_export
-from tests.support.fault_flight import AIR_START_ROCKET, fly
+from tests.support.fault_flight import AIR_START_ROCKET, flight_csv_columns, fly
 
 EXAMPLE_LOG = "examples/logs/sil_flight.log"
 ALTOS = "tests/data/flights/altos/2012-09-29-serial-341-flight-005.csv"
@@ -193,12 +193,8 @@ def test_backup_charges_in_the_summary_and_the_figure(sil):
 
 def test_a_motor_lit_in_coast_is_in_the_summary(tmp_path):
     # a staged flight (docs/DESIGN.md D19) written as a flight CSV: the summary names the ignition
-    fl = fly(AIR_START_ROCKET, after_apogee_s=5.0)
     path = tmp_path / "staged.csv"
-    # the barometric altitude back to pressure (the standard atmosphere's troposphere)
-    pressure = 101325.0 * (1 - 2.25577e-5 * fl.alt_mm / 1000) ** 5.25588
-    write_flight_csv(path, {"time_s": fl.time_s, "pressure_pa": pressure,
-                            "accel_mps2": fl.accel_mmps2 / 1000})
+    write_flight_csv(path, flight_csv_columns(fly(AIR_START_ROCKET, after_apogee_s=5.0)))
     log = read_flight_csv(path)
     result = replay(log, config_for(log))
     lit = _value(summary(result, log, UNITS["m"]), "ignition in coast")

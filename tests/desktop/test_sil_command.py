@@ -12,7 +12,7 @@ from desktop.io.importers import read_flight
 from desktop.io.logdecode import read_log, to_columns
 from desktop.review.replay import config_for, replay
 from shared.flight import EV_IGNITION, EV_LAUNCH
-from tests.support.fault_flight import AIR_START_ROCKET, fly
+from tests.support.fault_flight import AIR_START_ROCKET, flight_csv_columns, fly
 
 EXAMPLE = "examples/logs/sil_flight.log"
 ALTOS = "tests/data/flights/altos/2012-04-07-serial-882-flight-001.csv"
@@ -82,9 +82,7 @@ def test_staged_flight_through_the_firmware(tmp_path, capsys):
     # event byte has no room for
     fl = fly(AIR_START_ROCKET, after_apogee_s=5.0)
     flight = tmp_path / "staged.csv"
-    pressure = 101325.0 * (1 - 2.25577e-5 * fl.alt_mm / 1000) ** 5.25588  # standard troposphere
-    write_flight_csv(flight, {"time_s": fl.time_s, "pressure_pa": pressure,
-                              "accel_mps2": fl.accel_mmps2 / 1000})
+    write_flight_csv(flight, flight_csv_columns(fl))
     out = tmp_path / "board"
     assert main(["sil", "--out", str(out), "--flight", str(flight), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from desktop.sim.trajectory import isa_pressure
 from shared.altitude import pressure_to_alt_mm
 from shared.config import load_config
 from shared.detector import HAVE_ACCEL, HAVE_BARO
@@ -222,6 +223,30 @@ class Outcome:
     early_s: float  # how early the drogue was, s before true apogee (negative: late)
     events: list
     fc: object
+
+
+def flight_csv_columns(flight):
+    """The flight's readings as flight-CSV columns (docs/FLIGHT_CSV.md): the barometric altitude
+    back to the standard atmosphere's pressure, and the axial specific force in m/s^2."""
+    return {"time_s": flight.time_s, "pressure_pa": isa_pressure(flight.alt_mm / 1000),
+            "accel_mps2": flight.accel_mmps2 / 1000}
+
+
+def first_bound_miss(flight, slack_mmps=500):
+    """Fly the board's code (default configuration) over ``flight``: the first sample before
+    apogee whose true velocity lies more than ``slack_mmps`` outside the accelerometer's velocity
+    bounds, as (time s, true velocity, lower, upper mm/s), or None. (The simulation's reading holds
+    over the interval after its sample, the board integrates it over the interval before: the
+    true velocity is taken one sample on.)"""
+    fc = FlightComputer(load_config({}))
+    arb = fc.arb
+    for i in range(len(flight.dt_us)):
+        fc.step(int(flight.dt_us[i]), int(flight.alt_mm[i]), int(flight.accel_mmps2[i]), int(flight.have[i]))
+        if arb.valid and flight.time_s[i] < flight.apogee_s:
+            v = flight.true_vel_mps[i + 1] * 1000
+            if not arb.lower_mmps() - slack_mmps <= v <= arb.upper_mmps() + slack_mmps:
+                return float(flight.time_s[i]), v, arb.lower_mmps(), arb.upper_mmps()
+    return None
 
 
 def run(flight, sensors="both", **config):
