@@ -68,7 +68,7 @@ SCHEMA = {
     "coast_decel_mps2": (4.9, 1, 9.8, "m/s^2",
         "apogee needs the averaged deceleration to exceed this (coast ~ g)"),
     "max_boost_s": (15, 1, 60, "s", "a boost (launch, or a motor lit in coast) ends after this even without "
-        "burnout"),
+        "burnout; an accelerometer held at full scale this long is frozen"),
     "mach_lockout_mps": (250, 50, 3000, "m/s",
         "above this estimated speed no apogee and the barometer is de-weighted"),
     "mach_baro_weight_pct": (37.5, 0, 100, "%", "barometer weight reached at 1.32 x mach_lockout_mps"),
@@ -77,7 +77,8 @@ SCHEMA = {
     "baro_lag_ms": (0, 0, 500, "ms",
         "the barometer's reading lag (its IIR/oversampling filter and the static port); compensated"),
     "accel_range_g": (0, 0, 1000, "g",
-        "accelerometer full scale; readings at it are clipped and ignored (0 = unknown)"),
+        "accelerometer full scale; readings at it are clipped: left out of the filter, a lower bound "
+        "on the boost's acceleration (0 = unknown)"),
     # Sensor arbitration and health (docs/DESIGN.md, "Sensor arbitration")
     "accel_bias_max_mps2": (1.0, 0, 10, "m/s^2",
         "largest accelerometer bias left after pad calibration (error budget of its velocity)"),

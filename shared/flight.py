@@ -166,6 +166,8 @@ _NOT_DRAG_MMPS2 = -G_MMPS2 // 2
 # The detector's phase (``_det_phase``): the state (0 to 6) plus one of these flags
 _PHASE_RESUMING = const(8)  # a resumed filter settling
 _PHASE_TAIL_OFF = const(16)  # within _GATE_START_MS of burnout
+# the largest clipped reading the filter's acceleration takes (it holds at most RATE_LIMIT_Q4)
+_CLIP_ACC_LIMIT_MMPS2 = const(0x7FFFFF)  # RATE_LIMIT_Q4 >> 4: 855 g
 COAST_ACC_MAX_Q4 = const(-78456)  # -0.5 g in 1/16 mm/s^2: the most a coasting rocket's vertical
 # acceleration can be (it is -g - drag going up; -0.5 g leaves room for tilt and noise)
 # Near apogee vertical drag vanishes: the averaged acceleration must lie between -10 g and
@@ -438,6 +440,12 @@ class FlightComputer:
                 # velocity swings through the linear filter's transient, no measurement of the
                 # motion (a 290 m transient in mid coast: +150 m/s, then zero at 50 m/s climbing)
                 filter_decides = False
+            if clipped and state == BOOST and kf.acc_q4 >> 4 < acc_kin:
+                # a reading clipped at full scale is left out of the filter, but proves at least
+                # that much acceleration: the filter's is held at or above it, not at the value
+                # it had when the part began to clip (a C6 peaking at 19 g on a 16 g part: its
+                # velocity 11 m/s slow at burnout, 3 m/s with this)
+                kf.acc_q4 = acc_kin << 4 if acc_kin < _CLIP_ACC_LIMIT_MMPS2 else RATE_LIMIT_Q4
             apogee = det.step(dt_us, alt_mm, acc_kin, have, filter_decides)
             if mode == MODE_ACCEL and enabled:
                 apogee = _accel_only_apogee(self)

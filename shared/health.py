@@ -11,8 +11,9 @@ readings that may be used. It judges each reading alone:
 
 then each sensor over time (docs/DESIGN.md D16, "Sensor arbitration"): frozen (identical readings
 for ``baro_stuck_s`` in flight; for the accelerometer ``accel_stuck_s`` while it reads more than
-1 g, where noise and change are certain; a reading held at the largest of the flight is its full
-scale: clipped, not frozen) and single readings that are impossible (one that moved faster than
+1 g, where noise and change are certain; a reading at the configured full scale, or held at the
+largest of the flight, is clipped, and frozen only once held ``max_boost_s``: no boost that clips
+lasts longer) and single readings that are impossible (one that moved faster than
 ``baro_rate_max_mps`` from the previous reading); and last counts how long each sensor has gone
 without a usable reading: one without a usable reading for ``sensor_lost_s`` is lost
 (``baro_ok`` / ``accel_ok`` False), and the proof of flight falls back to the other sensor's
@@ -78,6 +79,10 @@ class SensorHealth:
         constructor's owner)."""
         self.baro_stuck_ms = config.baro_stuck_ms
         self.accel_stuck_ms = config.accel_stuck_ms
+        # a part clipped at full scale reads one value while the boost exceeds its range: frozen
+        # only once that outlasts any boost (a 16 g part clips through the whole 1.5 s burn of a
+        # 27 g motor; judged frozen after accel_stuck_s, it lost the accelerometer for the flight)
+        self.max_boost_ms = config.max_boost_ms
         self.baro_rate_max_mmps = config.baro_rate_max_mmps
         self.flags = 0
         self.changed = False  # flags changed at this sample
@@ -169,7 +174,6 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
                     have &= HAVE_BARO
                     health.accel_clipped += 1
                     clipped = True
-                run_now = True
             elif not held or size < _ONE_G_MMPS2:
                 run_now = True
             if run_now:
@@ -178,9 +182,11 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
             if not seen:
                 health._acc_seen = seen = True
         if (not run_now and in_flight and seen
-                and now_ms - health._acc_run_ms >= health.accel_stuck_ms):
+                and now_ms - health._acc_run_ms
+                >= (health.max_boost_ms if clipped else health.accel_stuck_ms)):
             flags |= HEALTH_ACCEL_STUCK
             have &= HAVE_BARO
+            clipped = False  # frozen, not clipped: not a reading at all
     health.clipped = clipped
     # lost: the time without a usable reading (a frozen sensor's readings are not usable
     # either); a sensor silent for sensor_lost_s no longer proves anything

@@ -245,8 +245,8 @@ MUTANTS = [
      "and False):",
      ARB_TESTS + "::test_barometer_frozen_or_lost_in_coast_never_early"),
     ("arb-accel-frozen", HEALTH,
-     "and now_ms - health._acc_run_ms >= health.accel_stuck_ms):",
-     "and False):",
+     ">= (health.max_boost_ms if clipped else health.accel_stuck_ms)):",
+     ">= 0 and False):",
      ARB_TESTS + "::test_accelerometer_faults_with_a_healthy_barometer"),
     ("arb-baro-spike", HEALTH,
      "and step > health.baro_rate_max_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM):",
@@ -394,6 +394,19 @@ MUTANTS = [
      "if acc_mmps2 > G_MMPS2:",
      "if False:",
      STAGING_TESTS + "::test_velocity_bounds_hold_through_a_second_burn"),
+    # a part clipped at full scale (docs/DESIGN.md D16, "A clipped accelerometer")
+    ("clip-lifts-the-filter", FLIGHT,
+     "if clipped and state == BOOST and kf.acc_q4 >> 4 < acc_kin:",
+     "if False:",
+     ARB_TESTS + "::test_the_filter_keeps_accelerating_through_a_clipped_boost[configured]"),
+    ("clip-is-not-frozen", HEALTH,
+     "(health.max_boost_ms if clipped else health.accel_stuck_ms)",
+     "health.accel_stuck_ms",
+     ARB_TESTS + "::test_a_part_clipped_through_the_boost_is_clipped_not_frozen[configured]"),
+    ("clip-outlasting-a-boost-is-frozen", HEALTH,
+     "                    clipped = True\n            elif not held",
+     "                    clipped = True\n                run_now = True\n            elif not held",
+     ARB_TESTS + "::test_a_clip_held_longer_than_any_boost_is_a_frozen_part[unknown]"),
 ]
 
 
