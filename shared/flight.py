@@ -440,11 +440,13 @@ class FlightComputer:
                 # velocity swings through the linear filter's transient, no measurement of the
                 # motion (a 290 m transient in mid coast: +150 m/s, then zero at 50 m/s climbing)
                 filter_decides = False
-            if clipped and state == BOOST and kf.acc_q4 >> 4 < acc_kin:
+            if clipped and state == BOOST and self.arb.baro_consistent and kf.acc_q4 >> 4 < acc_kin:
                 # a reading clipped at full scale is left out of the filter, but proves at least
                 # that much acceleration: the filter's is held at or above it, not at the value
                 # it had when the part began to clip (a C6 peaking at 19 g on a 16 g part: its
-                # velocity 11 m/s slow at burnout, 3 m/s with this)
+                # velocity 11 m/s slow at burnout, 3 m/s with this); not while the barometer
+                # contradicts the accelerometer's bounds (a part stuck at full scale in coast
+                # reads as a motor lit: the barometer, not the part, must then end that boost)
                 kf.acc_q4 = acc_kin << 4 if acc_kin < _CLIP_ACC_LIMIT_MMPS2 else RATE_LIMIT_Q4
             apogee = det.step(dt_us, alt_mm, acc_kin, have, filter_decides)
             if mode == MODE_ACCEL and enabled:

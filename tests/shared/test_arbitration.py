@@ -168,6 +168,36 @@ def test_a_clip_held_longer_than_any_boost_is_a_frozen_part(range_known):
 
 
 @pytest.mark.parametrize("range_known", [True, False], ids=["configured", "unknown"])
+def test_a_part_stuck_at_full_scale_in_coast_does_not_hold_the_boost(range_known):
+    # a part stuck at its positive full scale 3 s after burnout reads as a motor lit in coast (an
+    # ignition); the barometer then contradicts the accelerometer's bounds, and the clipped boost's
+    # rule (the filter's acceleration at or above the reading) must yield to it: the barometer
+    # brings the filter to burnout within 4 s (measured 3.2 s), not max_boost_s (15 s) later.
+    # Never early: the track's lower bound holds the apogee, and the backup timer decides (+3.6 s)
+    rocket = SUBSONIC_ROCKET
+    fl = flight(rocket, Faults(accel_range_g=16))
+    stuck = fl.time_s >= rocket.burn_s + 3
+    accel = fl.accel_mmps2.copy()
+    accel[stuck] = accel.max()
+    config = {"sensors": "both", "backup_drogue_s": round(fl.apogee_s + 3)}
+    if range_known:
+        config["accel_range_g"] = 16
+    fc = flight_module.FlightComputer(load_config(config))
+    boost_s = drogue_s = None
+    for i in range(len(fl.dt_us)):
+        fc.step(int(fl.dt_us[i]), int(fl.alt_mm[i]), int(accel[i]), int(fl.have[i]))
+        if stuck[i] and fc.state == flight_module.BOOST and boost_s is None:
+            boost_s = float(fl.time_s[i])
+        if boost_s is not None and fc.state != flight_module.BOOST and fl.time_s[i] < boost_s + 4:
+            boost_s = -1.0  # out of boost within 4 s
+        if fc.events & flight_module.EV_DROGUE:
+            drogue_s = float(fl.time_s[i])
+            break
+    assert boost_s == -1.0
+    assert drogue_s is not None and drogue_s >= fl.apogee_s - EARLY_LIMIT_S
+
+
+@pytest.mark.parametrize("range_known", [True, False], ids=["configured", "unknown"])
 def test_the_filter_keeps_accelerating_through_a_clipped_boost(range_known):
     # a clipped reading is left out of the filter, but proves at least that much acceleration: the
     # filter's acceleration is held at or above it. At burnout of a 27 g boost on a 16 g part the
