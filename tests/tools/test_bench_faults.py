@@ -84,6 +84,13 @@ def drag_flight(thrust_n, burn_s, mass_kg, cda_m2, after_apogee_s=6.0, site_m=30
 
 
 @pytest.fixture(scope="module")
+def model_rocket():
+    # a C6-class model rocket (0.11 kg, 25 mm, 7.6 N for 1.86 s): 100 m/s at burnout, apogee
+    # 430 m at 9.5 s
+    return drag_flight(7.6, 1.86, 0.11, 0.5 * math.pi * 0.0125**2)
+
+
+@pytest.fixture(scope="module")
 def supersonic():
     # a 78 mm minimum-diameter K1000-class flight: Mach 1.7 at burnout (2.5 s), through Mach 1
     # again about 5 s later, apogee 3.9 km at 23 s; ends 6 s past apogee
@@ -120,12 +127,25 @@ XFAIL_TRANSIENT = pytest.mark.xfail(strict=True, reason=(
     "a transient that decays over 3 s in mid coast changes the barometric rate slowly enough to stay "
     "inside the consistency tolerance: -300 m fires 0.61 s late (the filter follows the barometer's "
     "false climb), +300 m 0.29 s early (the dead-reckoning guard holds it back from 1.4 s early)"))
+XFAIL_MODEL_ROCKET_TRANSIENT = pytest.mark.xfail(strict=True, reason=(
+    "on a model rocket a transient at burnout decaying over 2.5 s is taken back while its decay still "
+    "lies inside the accelerometer's worst-case margin (its tilt budget x the boost), and the coast "
+    "before it was too short for the dead-reckoning guard: +300 m fires 1.84 s early "
+    "(docs/DESIGN.md D16, 'Measured since and not kept': a wait after the barometer comes back)"))
 XFAIL_BARO_ONLY_TRANSIENT = pytest.mark.xfail(strict=True, reason=(
     "a barometer-only board has no second sensor to tell a slowly decaying transient from motion: "
     "the filter follows its decay within baro_diverged_m, 1.02 s early"))
 
 
 # --- both sensors -------------------------------------------------------------------------------
+
+
+@XFAIL_MODEL_ROCKET_TRANSIENT
+def test_a_transient_at_burnout_of_a_model_rocket_is_not_early(model_rocket):
+    start_s = model_rocket.burnout_time_s + 0.1
+    drogue, _ = run(model_rocket, fault("transient_burnout", dh_m=300.0, start_s=start_s, rise_s=0.4,
+                                        decay_s=2.5, hold_until_s=None))
+    assert_not_early(model_rocket, drogue)
 
 
 def test_fault_free_subsonic_within_0_1_s(subsonic):
