@@ -323,6 +323,17 @@ def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2, defer=False):
             _judge(arb, head, t_ms, alt, win_vel)
 
 
+def reads_slow(arb, floor_mmps):
+    """The barometer, just taken back, climbed slower than the accelerometer's velocity carried on
+    from the anchor over the newest judged window, by more than ``floor_mmps`` plus three times
+    the learnt noise of its rate: what is left of its fault lies on the early side."""
+    diff = arb._diff[arb._head]
+    if diff == _NO_DIFF:
+        return False
+    return diff + arb.anchor_track_mmps - arb.anchor_filter_mmps < -(
+        floor_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps)
+
+
 def judge_late(arb):
     """The judgement ``close_slot`` deferred, of the newest window. It must come before the track,
     the anchor or the history change, and before ``baro_consistent`` or ``baro_rate_mmps`` is read:

@@ -97,6 +97,9 @@ SCHEMA = {
         "below baro_change_below_mps, a barometer left out in coast comes back only when its rate "
         "agrees within this (plus 3 x its learnt noise and the margin grown since) with the "
         "accelerometer's velocity carried on from the filter's before the fault"),
+    "baro_back_slow_mps": (5, 0, 100, "m/s",
+        "a barometer taken back reading this much (plus 3 x its learnt noise) slower than the "
+        "accelerometer's velocity since the fault does not decide apogee for baro_settle_s"),
     "dead_reckoning_guard_mps": (0, 0, 50, "m/s",
         "after the barometer was left out in coast: no apogee while the accelerometer's velocity "
         "carried on from the filter's before the fault exceeds this"),
@@ -108,8 +111,8 @@ SCHEMA = {
         "was this far from the barometer (RMS over 0.16 s): its velocity is then a re-convergence "
         "transient, not the motion"),
     "baro_settle_s": (4, 0, 30, "s",
-        "how long apogee on the barometer alone waits after the filter was baro_diverged_m off it "
-        "(0 = off)"),
+        "how long apogee on the barometer alone waits after the filter was baro_diverged_m off it, "
+        "and any filter apogee after a barometer taken back reading slow (baro_back_slow_mps; 0 = off)"),
     "baro_step_rate_mps": (20, 0, 100, "m/s",
         "a barometer rejected by the gate for a second whose innovation then moves slower than this "
         "stepped (a pressure offset): the filter re-takes its altitude, not its velocity (0 = off)"),
@@ -186,6 +189,7 @@ class Config:
         self.baro_change_below_mmps = int(v["baro_change_below_mps"] * 1000)
         self.baro_readmit_mmps = int(v["baro_readmit_mps"] * 1000)
         self.dead_reckoning_guard_mmps = int(v["dead_reckoning_guard_mps"] * 1000)
+        self.baro_back_slow_mmps = int(v["baro_back_slow_mps"] * 1000)
         self.baro_track_sq_q4 = int(v["baro_track_m"] ** 2 * 16)  # 1/16 m^2
         self.baro_diverged_sq_q4 = int(v["baro_diverged_m"] ** 2 * 16)  # 1/16 m^2
         self.baro_settle_ms = int(v["baro_settle_s"] * 1000)

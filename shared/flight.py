@@ -87,7 +87,7 @@ except ImportError:
         return x
 
 from shared.apogee import SeedRule, VelocityRule
-from shared.arbitration import Arbitration, add_baro, close_slot, integrate, judge_late
+from shared.arbitration import Arbitration, add_baro, close_slot, integrate, judge_late, reads_slow
 from shared.attrs import make_room
 from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
@@ -288,6 +288,9 @@ class FlightComputer:
         self.resid_sq_avg_q4 = 0
         # when that average last exceeded baro_diverged_m^2 in flight (so that the first samples pass)
         self.off_baro_ms = -config.baro_settle_ms
+        # when the barometer last came back into use reading slower than the accelerometer's
+        # velocity (D16 rule 9)
+        self.baro_back_ms = -config.baro_settle_ms
         self.apogee_ms = -1
         self.drogue_due_ms = -1
         self.drogue_fired_ms = -1
@@ -440,6 +443,15 @@ class FlightComputer:
                 # velocity swings through the linear filter's transient, no measurement of the
                 # motion (a 290 m transient in mid coast: +150 m/s, then zero at 50 m/s climbing)
                 filter_decides = False
+            if filter_decides and now_ms - self.baro_back_ms < cfg.baro_settle_ms:
+                # nor for baro_settle_s after the barometer came back reading slower than the
+                # accelerometer carries the velocity on (baro_back_ms, _arbitrate): a transient's
+                # decay, taken back inside the tolerance, lies on the early side, and the filter
+                # follows it through zero (docs/DESIGN.md D16 rule 9). Unless the filter already
+                # descends faster than that tolerance, or the dead-reckoning guard (rule 7)
+                # holds the apogee until the accelerometer's own estimate says apogee
+                filter_decides = health.accel_ok and (
+                    prior_vel_mmps <= -cfg.baro_readmit_mmps or self._dead_reckoning)
             if clipped and state == BOOST and self.arb.baro_consistent and kf.acc_q4 >> 4 < acc_kin:
                 # a reading clipped at full scale is left out of the filter, but proves at least
                 # that much acceleration: the filter's is held at or above it, not at the value
@@ -1072,6 +1084,8 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
             fc._baro_coast_ms = 0
         elif mode & MODE_BARO and not old & MODE_BARO:
             fc._reanchor = True
+            if mode & MODE_ACCEL and reads_slow(arb, cfg.baro_back_slow_mmps):
+                fc.baro_back_ms = now_ms
         fc.mode = mode
         fc.events |= EV_MODE
     if not mode & MODE_BARO:

@@ -55,14 +55,18 @@ def test_alternating_rows_give_the_events_of_the_merged_rows(name):
     # the anomalous flight's apogee follows the barometer's re-admission after its ejection-like
     # event at 2.0 s (its barometer climbs at 150 m/s against the accelerometer's 70): the
     # arbitration judges it in 50 ms slots over 0.5 s windows, and with a reading on every other
-    # row its windows leave the barometer out and take it back at other times: measured 4.30 s
-    # against 3.56 s merged (both late: the reference apogee is 2.65 s, the board fired at 6.40 s);
-    # its main (the apogee is below the main altitude: after main_guard_s, once the filter's
-    # descent shows) 6.40 s against 7.70 s, and the alternating log's landing 10 s after it
-    # comes before the record ends, the merged one's not
+    # row its windows leave the barometer out and take it back at other times (3.81 s against
+    # 3.41 s merged). Taken back reading slower than the (tumbling) accelerometer carries the
+    # velocity on, the barometer decides apogee only after baro_settle_s or once the filter
+    # descends faster than baro_readmit_mps (docs/DESIGN.md D16 rule 9): merged, the filter
+    # already descends at 67 m/s (apogee 3.62 s); alternating, at 7 m/s, so it waits until 6.50 s
+    # (the reference apogee is 2.65 s, the board fired at 6.40 s). Its main (the apogee is below
+    # the main altitude: after main_guard_s, once the filter's descent shows) 8.50 s against
+    # 7.90 s, and the alternating log's landing 10 s after it comes before the record ends, the
+    # merged one's not
     anomalous = name == ANOMALOUS
     _assert_same_events(row_layouts.alternating(log), row_layouts.merged_alternating(log),
-                        1.3 if anomalous else 0.0, ("landed",) if anomalous else ())
+                        3.0 if anomalous else 0.0, ("landed",) if anomalous else ())
 
 
 @pytest.mark.slow
