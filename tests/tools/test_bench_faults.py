@@ -148,19 +148,21 @@ def test_apogee_waits_after_the_barometer_comes_back_reading_slow(model_rocket, 
     dead-reckoning guard. Waiting baro_settle_s (the default) after the barometer came back:
     0.16 s early; without the wait, 1.84 s early."""
     config = {} if settle_s is None else {"baro_settle_s": settle_s}
-    start_s = model_rocket.burnout_time_s + 0.1
-    drogue, _ = run(model_rocket, fault("transient_burnout", dh_m=300.0, start_s=start_s, rise_s=0.4,
-                                        decay_s=2.5, hold_until_s=None), **config)
+    drogue = _burnout_transient_drogue(model_rocket, 300.0, **config)
     assert math.isfinite(drogue)
     assert (model_rocket.apogee_time_s - drogue > EARLY_S) == early
 
 
 @XFAIL_MODEL_ROCKET_TRANSIENT
 def test_a_smaller_transient_at_burnout_of_a_model_rocket_is_not_early(model_rocket):
-    start_s = model_rocket.burnout_time_s + 0.1
-    drogue, _ = run(model_rocket, fault("transient_burnout", dh_m=200.0, start_s=start_s, rise_s=0.4,
-                                        decay_s=2.5, hold_until_s=None))
-    assert_not_early(model_rocket, drogue)
+    assert_not_early(model_rocket, _burnout_transient_drogue(model_rocket, 200.0))
+
+
+def _burnout_transient_drogue(traj, dh_m, **config):
+    """A transient rising within 0.4 s from 0.1 s after burnout, decaying over 2.5 s."""
+    drogue, _ = run(traj, fault("transient_burnout", dh_m=dh_m, start_s=traj.burnout_time_s + 0.1, rise_s=0.4,
+                                decay_s=2.5, hold_until_s=None), **config)
+    return drogue
 
 
 def test_fault_free_subsonic_within_0_1_s(subsonic):
