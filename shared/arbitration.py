@@ -76,7 +76,11 @@ def _clamp(x, limit):
 class Arbitration:
     """The accelerometer's velocity bounds and the barometer's consistency with them."""
 
-    def __init__(self, config):
+    def __init__(self, config, ballistic=None):
+        # without an accelerometer in use, the coast checked against ballistics on this history
+        # (shared/ballistic.py, given by the flight computer: held here, not there, where one more
+        # attribute slows the step on MicroPython, docs/BENCHMARKS.md)
+        self.ballistic = ballistic
         self.bias_max_mmps2 = config.accel_bias_max_mmps2
         self.tilt_loss_1024 = config.tilt_loss_1024
         self.tol_mmps = config.baro_consistency_mmps

@@ -59,7 +59,8 @@ and ``_apogee_enabled()``: coast, proven,
 above the proof climb, after the lockout, an averaged deceleration between ``coast_decel_mps2``
 and 10 g, the accelerometer's lowest possible velocity at or below ``apogee_guard_mps``, and,
 once the barometer was left out in coast, the accelerometer's velocity dead-reckoned from the
-filter's before the fault at or below ``dead_reckoning_guard_mps``.
+filter's before the fault at or below ``dead_reckoning_guard_mps``; without an accelerometer in
+use, the ballistic floor (``shared/ballistic.py``) at or below zero.
 Without a usable barometer (``mode`` accel only) apogee is the accelerometer's highest possible
 velocity reaching zero (``_accel_only_apogee``); with no usable sensor, only the backup timer.
 The decision mode and the barometer's exclusion come from ``_arbitrate`` (docs/DESIGN.md D16).
@@ -86,6 +87,7 @@ except ImportError:
     def const(x):
         return x
 
+from shared import ballistic
 from shared.apogee import SeedRule, VelocityRule
 from shared.arbitration import Arbitration, add_baro, close_slot, integrate, judge_late, reads_slow
 from shared.attrs import make_room
@@ -231,7 +233,8 @@ class FlightComputer:
                                  + (config.tilt_loss_1024 * G_MMPS2 >> 10)) << 4
         self.health = SensorHealth(config)
         self.health.start_watch(config)
-        self.arb = Arbitration(config)
+        # (with the ballistic check of a coast without the accelerometer, D16 rule 10)
+        self.arb = Arbitration(config, ballistic.Ballistic(config))
         self.mode = (MODE_BARO if config.has_baro else 0) | (MODE_ACCEL if config.has_accel else 0)
         self.baro_excluded = False  # coast: the barometer disagrees with the accelerometer's bounds
         # re-take the barometer's altitude at its next reading (after a resume, or the barometer
@@ -316,7 +319,7 @@ class FlightComputer:
         self.settle_until_ms = 0  # after a resume: no apogee decision before this
         self._gap_us = 0  # after a resume: the time the reset cost, predicted across
         # room in the attribute tables of the objects each sample uses (MicroPython's speed)
-        for obj in (self, config, self.det, self.kf, self.health, self.arb, self.pad):
+        for obj in (self, config, self.det, self.kf, self.health, self.arb, self.pad, self.arb.ballistic):
             make_room(obj)
 
     def step(self, dt_us, alt_mm, accel_mmps2, have):
@@ -428,6 +431,10 @@ class FlightComputer:
         else:
             det.model = MODEL_BIAS
         if dt_us:
+            if state == COAST:
+                bal = self.arb.ballistic
+                if bal.floor_set:
+                    ballistic.fall(bal, dt_ms)
             enabled = state == COAST and _apogee_enabled(self, cfg, now_ms)
             if cfg.baro_lag_ms and have & HAVE_BARO:
                 # the reading shows the altitude of baro_lag_ms ago: h(t) ~ h(t - lag) + v lag
@@ -704,7 +711,8 @@ def _apogee_enabled(fc, cfg, now_ms):
             and cfg.coast_decel_mmps2 << 4 <= -fc.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
             and (fc.coast_measured or not accel_ok)
             and (accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4
-                 and now_ms - fc.off_baro_ms >= cfg.baro_settle_ms))
+                 and now_ms - fc.off_baro_ms >= cfg.baro_settle_ms
+                 and not ballistic.holds(arb.ballistic)))
 
 
 def _update_averages(fc, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms):
@@ -1064,6 +1072,10 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
             # of windows half a second long. Under the parachutes the steady descent reads the
             # rate on this sample.
             close_slot(arb, now_ms, kf.vel_q4 >> 4, kf.bias_q4 >> 4, state <= COAST)
+            if state == PAD and not cfg.has_accel or FAST <= state <= COAST and not fc.health.accel_ok:
+                # the ballistic test of a coast without the accelerometer (shared/ballistic.py;
+                # its noise learnt on a barometer-only board's pad)
+                ballistic.check(arb.ballistic, arb, state == PAD, state == COAST, now_ms)
         if not flags & HEALTH_BARO_BAD:
             mode = MODE_BARO
     if cfg.has_accel and not flags & HEALTH_ACCEL_BAD and (valid or not fc.launched):

@@ -27,12 +27,14 @@ FLIGHT = "shared/flight.py"
 HEALTH = "shared/health.py"
 PADCAL = "shared/padcal.py"
 ARB = "shared/arbitration.py"
+BALLISTIC = "shared/ballistic.py"
 PAD_TESTS = "tests/shared/test_pad_launch_proof.py"
 FLIGHT_TESTS = "tests/shared/test_flight.py"
 ARB_TESTS = "tests/shared/test_arbitration.py"
+BALLISTIC_TESTS = "tests/shared/test_ballistic.py"
 BACKUP_TESTS = "tests/shared/test_backup_charges.py"
 STAGING_TESTS = "tests/shared/test_staging.py"
-FAST_LANE = [FLIGHT_TESTS, PAD_TESTS, ARB_TESTS, BACKUP_TESTS, STAGING_TESTS, "-m",
+FAST_LANE = [FLIGHT_TESTS, PAD_TESTS, ARB_TESTS, BALLISTIC_TESTS, BACKUP_TESTS, STAGING_TESTS, "-m",
              "not slow and not micropython"]
 
 # (name, file, original, mutated, test that must fail)
@@ -123,10 +125,34 @@ MUTANTS = [
      "and (accel_ok or True\n",
      "tests/tools/test_bench_faults.py::test_baro_only_apogee_waits_for_the_filter_to_track_the_barometer"),
     ("baro-only-apogee-settles", FLIGHT,
-     "and now_ms - fc.off_baro_ms >= cfg.baro_settle_ms))",
-     "))",
+     "and now_ms - fc.off_baro_ms >= cfg.baro_settle_ms\n",
+     "\n",
      "tests/tools/test_bench_faults.py::"
      "test_baro_only_apogee_waits_for_the_filter_to_settle_after_it_was_off_the_barometer"),
+    ("baro-only-apogee-waits-for-the-ballistic-floor", FLIGHT,
+     "and not ballistic.holds(arb.ballistic)))",
+     "))",
+     BALLISTIC_TESTS + "::test_the_floor_holds_a_transients_decay_off_apogee"),
+    ("ballistic-nothing-lifts-a-coasting-rocket", BALLISTIC,
+     "if -most - tol <= change <= -least + tol:",
+     "if -most - tol <= change:",
+     BALLISTIC_TESTS + "::test_a_rate_that_rises_or_falls_beyond_the_coast_fails"),
+    ("ballistic-its-deceleration-does-not-grow", BALLISTIC,
+     "if -most - tol <= change <= -least + tol:",
+     "if change <= -least + tol:",
+     BALLISTIC_TESTS + "::test_a_rate_that_rises_or_falls_beyond_the_coast_fails"),
+    ("ballistic-a-fault-fails-a-run-of-windows", BALLISTIC,
+     "elif bal.run >= _RUN and bal.floor_set:",
+     "if bal.floor_set:",
+     BALLISTIC_TESTS + "::test_a_single_slot_off_sets_no_floor"),
+    ("ballistic-floor-from-clean-windows", BALLISTIC,
+     "clean = now_ms - bal.fail_ms >= _CLEAN_MS",
+     "clean = True",
+     BALLISTIC_TESTS + "::test_no_floor_from_windows_that_held_an_earlier_failure"),
+    ("ballistic-floor-below-the-rate", BALLISTIC,
+     "bal.floor_mmps = r[_R1] - _NOISE_K * noise // 2",
+     "bal.floor_mmps = r[_R1] + _NOISE_K * noise // 2",
+     BALLISTIC_TESTS + "::test_the_floor_stays_under_the_coast_and_reaches_zero_near_its_apogee"),
     ("apogee-waits-after-the-barometer-comes-back-slow", FLIGHT,
      "if filter_decides and now_ms - self.baro_back_ms < cfg.baro_settle_ms:",
      "if False:",

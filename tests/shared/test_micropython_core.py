@@ -5,6 +5,7 @@ sample, on the 64-bit unix port and on the 32-bit wasm build (31-bit small ints,
 These tests fail, never skip, when an interpreter is missing.
 """
 
+import math
 import subprocess
 from pathlib import Path
 
@@ -34,6 +35,11 @@ FLIGHTS = {
     "extreme_1000mps": (dict(rate_hz=50, boost_mmps2=981000, burn_ms=1020, after_apogee_s=2,
                              ground_mm=0, alt_noise_mm=3000, seed=14,
                              glitches=[(1000, 30000000), (2000, -30000000)]), 200),
+    # a pressure transient 8 s into the coast: +100 m within 0.2 s, decaying over 1.5 s (a
+    # barometer-only board sets its ballistic floor: shared/ballistic.py)
+    "transient": (dict(rate_hz=100, seed=15, glitches=[
+        (1200 + k, int(100000 * min(k / 20, 1) * math.exp(-max(k - 20, 0) / 150)))
+        for k in range(1000)]), 600),
 }
 
 GUEST = """
@@ -126,6 +132,7 @@ print(' '.join([str(x) for x in out]))
     ("extreme_30km", {"sensors": "baro"}),
     ("extreme_1000mps", None),
     ("descent", {"backup_drogue_delay_s": 1, "backup_main_m": 150}),
+    ("transient", {"sensors": "baro"}),
 ])
 def test_state_machine_heap_locked_and_bit_identical(interp, name, config):
     from tools.bench_step import run_fc_flight
@@ -143,6 +150,20 @@ def test_state_machine_heap_locked_and_bit_identical(interp, name, config):
         assert any(expected[i + 5] for i in range(0, len(expected), 6))  # it did fire
     if name == "descent":  # every output fired: drogue, main and both backups
         assert {expected[i + 5] for i in range(0, len(expected), 6)} >= {1, 2, 4, 8}
+
+
+def test_the_transient_flight_sets_the_ballistic_floor():
+    """(So that the heap-locked run above covers the floor's code.)"""
+    from shared.config import load_config
+    from shared.flight import FlightComputer
+
+    dts, alts, accs = make_flight(**FLIGHTS["transient"][0])[:3]
+    fc = FlightComputer(load_config({"sensors": "baro"}))
+    held = False
+    for d, a, f in zip(dts, alts, accs, strict=True):
+        fc.step(d, a, f + 9807, 3)  # (as tools/bench_step.run_fc_loop: both readings)
+        held = held or (fc.arb.ballistic.anchored and fc.arb.ballistic.floor_mmps > 0)
+    assert held
 
 
 @pytest.mark.parametrize("interp", INTERPRETERS)

@@ -131,9 +131,6 @@ XFAIL_MODEL_ROCKET_TRANSIENT = pytest.mark.xfail(strict=True, reason=(
     "on a model rocket a transient at burnout decaying over 2.5 s is taken back about 6 s before "
     "apogee and its decay still lies inside the accelerometer's worst-case margin (its tilt budget x "
     "the boost) after the baro_settle_s wait: +200 m fires 1.03 s early (docs/DESIGN.md D16 rule 9)"))
-XFAIL_BARO_ONLY_TRANSIENT = pytest.mark.xfail(strict=True, reason=(
-    "a barometer-only board has no second sensor to tell a slowly decaying transient from motion: "
-    "the filter follows its decay within baro_diverged_m, 1.02 s early"))
 
 
 # --- both sensors -------------------------------------------------------------------------------
@@ -306,10 +303,7 @@ def test_baro_only_through_mach_never_fires_early(supersonic, kind, eps):
     assert_not_early(supersonic, drogue)
 
 
-@pytest.mark.parametrize("dh_m, decay_s", [
-    (-300.0, 0.3), (300.0, 0.3), (-300.0, 3.0),
-    pytest.param(300.0, 3.0, marks=XFAIL_BARO_ONLY_TRANSIENT),
-])
+@pytest.mark.parametrize("dh_m, decay_s", [(-300.0, 0.3), (300.0, 0.3), (-300.0, 3.0), (300.0, 3.0)])
 def test_baro_only_transient_in_mid_coast_never_fires_early(subsonic, dh_m, decay_s):
     start = 0.5 * (subsonic.burnout_time_s + subsonic.apogee_time_s)
     drogue, _ = run(subsonic, fault("transient_midcoast", dh_m=dh_m, start_s=start, rise_s=0.1,
@@ -317,15 +311,31 @@ def test_baro_only_transient_in_mid_coast_never_fires_early(subsonic, dh_m, deca
     assert_not_early(subsonic, drogue)
 
 
+@pytest.mark.parametrize("tol_mps, early", [(None, False), (0, True)], ids=["floor", "no_floor"])
+def test_baro_only_apogee_waits_for_the_ballistic_floor(subsonic, tol_mps, early):
+    """+300 m within 0.1 s in mid coast, decaying over 3 s, on a barometer-only board: the filter
+    follows the decay within baro_diverged_m once the gate has re-synchronised, and its velocity
+    crosses zero 1.02 s before apogee. The rise is beyond what a coasting rocket can do: the
+    ballistic floor from the rates before it (baro_ballistic_mps, the default) holds apogee until
+    a coast that began at that speed could have stopped climbing."""
+    config = {} if tol_mps is None else {"baro_ballistic_mps": tol_mps}
+    start = 0.5 * (subsonic.burnout_time_s + subsonic.apogee_time_s)
+    drogue, _ = run(subsonic, fault("transient_midcoast", dh_m=300.0, start_s=start, rise_s=0.1,
+                                    decay_s=3.0, hold_until_s=None), board="baro", **config)
+    assert math.isfinite(drogue)
+    assert (subsonic.apogee_time_s - drogue > EARLY_S) == early
+
+
 @pytest.mark.parametrize("baro_track_m, early", [(10, False), (100, True)],
                          ids=["tracking_check", "tracking_check_widest"])
 def test_baro_only_apogee_waits_for_the_filter_to_track_the_barometer(subsonic, baro_track_m, early):
     """-45 m within 0.1 s, 1 s before apogee, decaying over 2 s: inside the gate, so the filter
     follows it and its velocity dips through zero. The tracking check (baro_track_m) holds apogee
-    until the filter is back on the barometer: 0.10 s early; at its widest, 0.73 s early."""
+    until the filter is back on the barometer: 0.10 s early; at its widest, 0.73 s early. (The
+    ballistic floor holds this flight too: it is off here, so this test speaks for the check.)"""
     drogue, _ = run(subsonic, fault("transient_midcoast", dh_m=-45.0, start_s=subsonic.apogee_time_s - 1.0,
                                     rise_s=0.1, decay_s=2.0, hold_until_s=None), board="baro",
-                    baro_track_m=baro_track_m)
+                    baro_track_m=baro_track_m, baro_ballistic_mps=0)
     assert (subsonic.apogee_time_s - drogue > EARLY_S) == early
 
 
@@ -347,8 +357,11 @@ def test_baro_only_apogee_waits_for_the_filter_to_settle_after_it_was_off_the_ba
     less than the second a re-synchronisation takes, and the filter, pulled off the barometer,
     swings back through the transient of its gains; its altitude tracks the barometer again while
     its velocity is still 16 m/s low. Waiting baro_settle_s (the default) after it was
-    baro_diverged_m off the barometer: 0.26 s early; without the wait, 1.67 s early."""
-    config = {} if settle_s is None else {"baro_settle_s": settle_s}
+    baro_diverged_m off the barometer: 0.26 s early; without the wait, 1.67 s early. (The
+    ballistic floor holds this flight too: it is off here, so this test speaks for the wait.)"""
+    config = {"baro_ballistic_mps": 0}
+    if settle_s is not None:
+        config["baro_settle_s"] = settle_s
     drogue, _ = run(subsonic, fault("transient_midcoast", dh_m=80.0, start_s=subsonic.apogee_time_s - 5.0,
                                     rise_s=0.3, decay_s=1.0, hold_until_s=None), board="baro", **config)
     assert (subsonic.apogee_time_s - drogue > EARLY_S) == early

@@ -1,0 +1,268 @@
+"""A barometer-only coast checked against ballistics (docs/DESIGN.md D16 rule 10).
+
+Portable and allocation-free per sample.
+
+Without an accelerometer in use nothing but the barometer measures the motion, and nothing else
+tells a pressure transient's decay from a descent. Physics still bounds a coasting rocket: going
+up, its vertical acceleration is -g - drag, drag >= 0, and drag falls as the rocket slows and
+climbs (in coast, below the Mach lockout: subsonic, in thinning air). On the barometric climb
+rates over the arbitration's history of 50 ms slot means (``shared/arbitration.py``, read here):
+r0 over the newest 0.5 s, r1 and r2 over the windows 0.5 s and 1 s before it, dt apart:
+
+- *the change test*: nothing lifts a coasting rocket, r0 - r1 <= -g dt + tol, and its
+  deceleration does not grow, r0 - r1 >= min(r1 - r2, -g dt) - tol; tol is
+  ``baro_ballistic_mps`` plus three times the learnt noise, the mean |r0 - 2 r1 + r2| (on a
+  barometer-only board's pad and over the coast's passing windows; a board whose accelerometer
+  failed starts from the arbitration's change test). A fault fails _RUN windows in a row;
+- *the drag law*: over the coast's passing windows, the drag between r2 and r1,
+  (r2 - r1) / dt - g, and the square of their mean speed are averaged: for drag = k v^2 the
+  ratio of the averages is k, and the noise of one window pair's drag (a few m/s^2) averages out;
+- *the floor*: at the first failure of a run, the vertical velocity is at least r1 less three
+  standard deviations of its noise (at r1's middle time), and it falls from there at most at
+  g + k' v^2, k' the law's k plus a noise margin: a vertical coast in air of constant density,
+  where the real rocket climbs into thinner air. Once the run is _RUN windows long, no apogee
+  while the floor is above zero (``holds``), for the rest of the coast.
+
+Units: rates and the floor in mm/s, drag in mm/s^2, times in ms, the learnt noise in mm/s.
+"""
+
+from array import array
+
+try:
+    from micropython import const
+except ImportError:
+    def const(x):
+        return x
+
+from shared.physics import G_MMPS2
+
+# The learnt noise is the mean |r0 - 2 r1 + r2|: about 2 standard deviations of one window's rate
+# (independent windows: 0.8 x sqrt(6) sigma). The tolerance is baro_ballistic_mps + _NOISE_K x
+# it; the floor starts _NOISE_K x sigma below r1, and its drag is half a noise per dt above the
+# law's: 0.7 sigma of one window pair's drag, about 1.8 sigma of the law's average (an average
+# over 3.2 s holds about 6 independent pairs). A whole noise per dt held fewer transients' decays
+# off apogee (docs/BENCHMARKS.md, "A barometer-only coast checked against ballistics").
+_NOISE_K = const(3)
+_NOISE_AVG_N = const(40)  # the noise's average: 1/40 per window (2 s of windows at 20 per second)
+# A fault fails _RUN windows in a row (0.15 s): a single slot off (a reading stalled at speed) moves
+# only the two windows it ends, 0.5 s apart
+_RUN = const(3)
+# The floor is set only from windows that held no earlier failure: the last one at least three
+# windows (1.5 s) before (a rise at the coast's start, before its windows lay in the coast, sits
+# in r1 half a second later)
+_CLEAN_MS = const(1500)
+_DRAG_AVG_N = const(64)  # the drag law's averages: 1/64 per window (3.2 s)
+# Bounds that keep every product inside 31 bits: a rate's change (1 km/s) times 100, a speed
+# (m/s) squared times 256, the drag (53 g) times the ratio of squared speeds in 1/256 (at most
+# 4), the deceleration (107 g) times a step of at most 1 s.
+_CHANGE_LIMIT_MMPS = const(0xFFFFF)
+_SPEED_LIMIT_MPS = const(1000)
+_DRAG_LIMIT_MMPS2 = const(0x7FFFF)
+_RATIO_LIMIT_256 = const(1024)
+_DECEL_LIMIT_MMPS2 = const(0xFFFFF)
+_DT_LIMIT_MS = const(1000)
+# The windows: _WINDOW_SLOTS of the arbitration's 50 ms slots (0.5 s); a rise between two slots is
+# clamped to 1 km (the rate then stays within 31 bits)
+_WINDOW_SLOTS = const(10)
+_RISE_LIMIT_MM = const(0xFFFFF)
+# ``_window_rates`` output: the three rates, then the middle times of r1's and r2's windows, and
+# the start of r2's window
+_R0 = const(0)
+_R1 = const(1)
+_R2 = const(2)
+_T1 = const(3)
+_T2 = const(4)
+_START = const(5)
+
+
+class Ballistic:
+    """The change test's learnt noise, the coast's drag law and the floor; see the module
+    docstring."""
+
+    def __init__(self, config):
+        # (from the values: one more attribute of the configuration re-lays its table, and so
+        # every lookup of it in the step, on MicroPython: docs/BENCHMARKS.md)
+        self.tol_mmps = int(config.values["baro_ballistic_mps"] * 1000)
+        # the noise: learnt on the pad of a barometer-only board; a board whose accelerometer
+        # failed starts from the arbitration's change test (the mean |r0 - r1| there, about
+        # 1/sqrt(3) of the mean |r0 - 2 r1 + r2|), so that its pad costs nothing more
+        self.noise_from_arb = config.has_accel
+        self.noise_mmps = 0
+        self.coast_ms = -1  # the first coast sample the test saw (-1: not coasting)
+        # the drag the coast's windows showed before any fault: its average (mm/s^2) and the
+        # average square of the speed it was measured at ((m/s)^2); ``learnt``: a window set them
+        self.drag_mmps2 = 0
+        self.speed2 = 0
+        self.learnt = False
+        self.run = 0  # failing windows in a row
+        self.fail_ms = -_CLEAN_MS  # the last failing window
+        # the floor, set at the first failure of a run (``floor_set``), in force once the run
+        # reaches _RUN windows (``anchored``, for the rest of the coast): its velocity, the fall
+        # not yet taken off it (um/s) and its drag at the speed whose square is ``speed2``
+        self.floor_set = False
+        self.anchored = False
+        self.floor_mmps = 0
+        self.fall_um = 0
+        self.floor_drag_mmps2 = 0
+        self.rates = array("i", [0] * 6)  # _window_rates' output
+
+
+def check(bal, arb, on_pad, coasting, now_ms):
+    """A window of the arbitration ``arb`` closed: ``judge`` its rates. Returns True when the
+    window fails."""
+    if coasting and not bal.noise_mmps and bal.noise_from_arb:
+        bal.noise_mmps = arb._change_avg_mmps * 7 >> 2
+    return judge(bal, _window_rates(arb, bal.rates), on_pad, coasting, now_ms)
+
+
+def judge(bal, got, on_pad, coasting, now_ms):
+    """The rates in ``bal.rates`` (``got``: there are three): on the pad (``on_pad``) learn the
+    noise; in coast (``coasting``) learn the drag, test the change and, at the first failure of a
+    run, set the floor, in force once the run is _RUN windows long; else (above the Mach lockout)
+    nothing. Returns True when the window fails."""
+    if not coasting:
+        bal.coast_ms = -1
+        if got and on_pad:  # (the pad: the rates are noise)
+            r = bal.rates
+            _learn_noise(bal, _clamp(r[_R0] - r[_R1]) - _clamp(r[_R1] - r[_R2]))
+        return False
+    if bal.coast_ms < 0:
+        bal.coast_ms = now_ms
+    if not got or not bal.tol_mmps:  # (0: the rule is off)
+        return False
+    r = bal.rates
+    noise = bal.noise_mmps
+    tol = bal.tol_mmps + _NOISE_K * noise
+    dt_cs = (r[_T1] - r[_T2]) // 10  # centiseconds: the products below stay in 31 bits
+    if dt_cs <= 0:
+        return False
+    change = _clamp(r[_R0] - r[_R1])
+    before = _clamp(r[_R1] - r[_R2])
+    least = G_MMPS2 * dt_cs // 100  # the least a coasting rocket's rate falls over dt
+    most = -before if -before > least else least  # the most, as drag does not grow
+    if -most - tol <= change <= -least + tol:
+        bal.run = 0
+        if not bal.anchored:  # (after a fault its decay would teach the noise and the drag)
+            bal.floor_set = False  # (a glitch: a single slot off moves two windows, not _RUN)
+            _learn_noise(bal, change - before)
+            if r[_START] >= bal.coast_ms:  # r1 and r2 both in this coast
+                _learn_drag(bal, before, dt_cs)
+        return False
+    bal.run += 1
+    if bal.anchored:
+        return True
+    clean = now_ms - bal.fail_ms >= _CLEAN_MS  # (r1 and r2 held no earlier failure's fault)
+    bal.fail_ms = now_ms
+    if bal.run == 1 and r[_START] >= bal.coast_ms and clean:
+        # the floor: r1 less its noise at r1's middle time, carried on to now
+        drag = bal.drag_mmps2 + (noise * 100 // dt_cs >> 1)  # (the margin: see _NOISE_K)
+        bal.floor_drag_mmps2 = drag if drag > 0 else 0
+        bal.floor_mmps = r[_R1] - _NOISE_K * noise // 2
+        bal.fall_um = 0
+        bal.floor_set = True
+        fall(bal, now_ms - r[_T1])
+    elif bal.run >= _RUN and bal.floor_set:
+        bal.anchored = True
+    return True
+
+
+def _window_rates(arb, out):
+    """The barometric climb rates (mm/s) of the windows ending at the arbitration's newest slot, at
+    the slot ``_WINDOW_SLOTS`` before it and at the one ``2 * _WINDOW_SLOTS`` before, then the
+    middle times of the second and third windows and the start of the third (ms), into ``out``.
+    False, and ``out`` untouched, until the history holds the three windows, or while the newest
+    window holds a slot without a barometric reading. (It reads the arbitration's history here:
+    one more function there re-lays that module's globals, and so every lookup of them in its
+    per-sample code, on MicroPython.)"""
+    if arb._slots <= 3 * _WINDOW_SLOTS or arb._unjudged:
+        return False
+    t = arb._t
+    alt = arb._alt
+    size = len(t)
+    i = arb._head
+    k = 0
+    while k < 3:  # (no range: it allocates on MicroPython)
+        j = i - _WINDOW_SLOTS
+        if j < 0:
+            j += size
+        span_ms = t[i] - t[j]
+        if span_ms <= 0:
+            return False
+        rise_mm = alt[i] - alt[j]
+        if rise_mm > _RISE_LIMIT_MM:
+            rise_mm = _RISE_LIMIT_MM
+        elif rise_mm < -_RISE_LIMIT_MM:
+            rise_mm = -_RISE_LIMIT_MM
+        out[k] = rise_mm * 1000 // span_ms
+        if k:
+            out[2 + k] = (t[i] + t[j]) >> 1
+        i = j
+        k += 1
+    out[5] = t[i]
+    return True
+
+
+def _clamp(x):
+    if x > _CHANGE_LIMIT_MMPS:
+        return _CHANGE_LIMIT_MMPS
+    if x < -_CHANGE_LIMIT_MMPS:
+        return -_CHANGE_LIMIT_MMPS
+    return x
+
+
+def _learn_noise(bal, second_mmps):
+    """Average |r0 - 2 r1 + r2| (``second_mmps``, each change clamped) into the noise."""
+    if second_mmps < 0:
+        second_mmps = -second_mmps
+    bal.noise_mmps += (second_mmps - bal.noise_mmps) // _NOISE_AVG_N
+
+
+def _learn_drag(bal, before_mmps, dt_cs):
+    """Average the drag between r2 and r1 (their change ``before_mmps`` over ``dt_cs``, less g)
+    and the square of their mean speed (the first window of the coast sets both)."""
+    r = bal.rates
+    drag = -before_mmps * 100 // dt_cs - G_MMPS2
+    if drag > _DRAG_LIMIT_MMPS2:
+        drag = _DRAG_LIMIT_MMPS2
+    elif drag < -_DRAG_LIMIT_MMPS2:
+        drag = -_DRAG_LIMIT_MMPS2
+    speed = ((r[_R1] + r[_R2]) >> 1) // 1000
+    if speed < 0:
+        speed = 0
+    elif speed > _SPEED_LIMIT_MPS:
+        speed = _SPEED_LIMIT_MPS
+    if bal.learnt:
+        bal.drag_mmps2 += (drag - bal.drag_mmps2) // _DRAG_AVG_N
+        bal.speed2 += (speed * speed - bal.speed2) // _DRAG_AVG_N
+    else:
+        bal.learnt = True
+        bal.drag_mmps2 = drag
+        bal.speed2 = speed * speed
+
+
+def fall(bal, dt_ms):
+    """Carry the floor on by ``dt_ms``: down at g + drag v^2 / speed2 while it is above zero
+    (Euler with the deceleration at the step's start: the floor stays below the exact one)."""
+    v = bal.floor_mmps
+    if v <= 0:
+        return
+    if dt_ms > _DT_LIMIT_MS:
+        dt_ms = _DT_LIMIT_MS
+    speed = (v + 999) // 1000  # (rounded up: more drag, a lower floor)
+    if speed > _SPEED_LIMIT_MPS:
+        speed = _SPEED_LIMIT_MPS
+    speed2 = bal.speed2 if bal.speed2 > 0 else 1
+    ratio = speed * speed * 256 // speed2
+    if ratio > _RATIO_LIMIT_256:
+        ratio = _RATIO_LIMIT_256
+    decel = G_MMPS2 + (bal.floor_drag_mmps2 * ratio >> 8)
+    if decel > _DECEL_LIMIT_MMPS2:
+        decel = _DECEL_LIMIT_MMPS2
+    um = bal.fall_um + decel * dt_ms  # (the fall's sub-mm/s remainder carried: um/s)
+    bal.floor_mmps = v - um // 1000
+    bal.fall_um = um % 1000
+
+
+def holds(bal):
+    """No apogee: the floor is set and above zero."""
+    return bal.anchored and bal.floor_mmps > 0
