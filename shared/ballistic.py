@@ -1,4 +1,4 @@
-"""A barometer-only coast checked against ballistics (docs/DESIGN.md D16 rule 10).
+"""A coast checked against ballistics: the velocity floor (docs/DESIGN.md D16 rule 10).
 
 Portable and allocation-free per sample.
 
@@ -17,11 +17,16 @@ r0 over the newest 0.5 s, r1 and r2 over the windows 0.5 s and 1 s before it, dt
 - *the drag law*: over the coast's passing windows, the drag between r2 and r1,
   (r2 - r1) / dt - g, and the square of their mean speed are averaged: for drag = k v^2 the
   ratio of the averages is k, and the noise of one window pair's drag (a few m/s^2) averages out;
-- *the floor*: at the first failure of a run, the vertical velocity is at least r1 less three
+- *the floor*: at the first failure of a run (once the law has _LAW_WINDOWS windows, and if no
+  window failed in the _CLEAN_MS before), the vertical velocity is at least r1 less three
   standard deviations of its noise (at r1's middle time), and it falls from there at most at
   g + k' v^2, k' the law's k plus a noise margin: a vertical coast in air of constant density,
   where the real rocket climbs into thinner air. Once the run is _RUN windows long, no apogee
   while the floor is above zero (``holds``), for the rest of the coast.
+
+With both sensors the window test does not run (its cost on a Cortex-M0); the barometer's
+exclusion by the arbitration sets the floor instead (``set_from_track``), from the filter's
+velocity before the fault and the drag the accelerometer measured then.
 
 Units: rates and the floor in mm/s, drag in mm/s^2, times in ms, the learnt noise in mm/s.
 """
@@ -41,7 +46,7 @@ from shared.physics import G_MMPS2
 # it; the floor starts _NOISE_K x sigma below r1, and its drag is half a noise per dt above the
 # law's: 0.7 sigma of one window pair's drag, about 1.8 sigma of the law's average (an average
 # over 3.2 s holds about 6 independent pairs). A whole noise per dt held fewer transients' decays
-# off apogee (docs/BENCHMARKS.md, "A barometer-only coast checked against ballistics").
+# off apogee (docs/BENCHMARKS.md, "A coast checked against ballistics").
 _NOISE_K = const(3)
 _NOISE_AVG_N = const(40)  # the noise's average: 1/40 per window (2 s of windows at 20 per second)
 # A fault fails _RUN windows in a row (0.15 s): a single slot off (a reading stalled at speed) moves
@@ -52,6 +57,13 @@ _RUN = const(3)
 # in r1 half a second later)
 _CLEAN_MS = const(1500)
 _DRAG_AVG_N = const(64)  # the drag law's averages: 1/64 per window (3.2 s)
+# With both sensors the floor starts from the filter's velocity at the arbitration's anchor, which
+# the barometer and the accelerometer together know to about a metre per second: twice that below
+_ANCHOR_MARGIN_MMPS = const(2000)
+# No floor before the law has averaged this many windows (0.25 s of the coast): without a drag
+# law the floor would fall at g alone, above a real coast (after a reset in coast, or a fault in
+# the coast's first windows). Ten lost a C6 whose transient came 0.4 s into its windows' coast
+_LAW_WINDOWS = const(5)
 # Bounds that keep every product inside 31 bits: a rate's change (1 km/s) times 100, a speed
 # (m/s) squared times 256, the drag (53 g) times the ratio of squared speeds in 1/256 (at most
 # 4), the deceleration (107 g) times a step of at most 1 s.
@@ -90,10 +102,11 @@ class Ballistic:
         self.noise_mmps = 0
         self.coast_ms = -1  # the first coast sample the test saw (-1: not coasting)
         # the drag the coast's windows showed before any fault: its average (mm/s^2) and the
-        # average square of the speed it was measured at ((m/s)^2); ``learnt``: a window set them
+        # average square of the speed it was measured at ((m/s)^2), over ``windows`` windows
+        # (counted to _LAW_WINDOWS)
         self.drag_mmps2 = 0
         self.speed2 = 0
-        self.learnt = False
+        self.windows = 0
         self.run = 0  # failing windows in a row
         self.fail_ms = -_CLEAN_MS  # the last failing window
         # the floor, set at the first failure of a run (``floor_set``), in force once the run
@@ -101,8 +114,10 @@ class Ballistic:
         # not yet taken off it (um/s) and its drag at the speed whose square is ``speed2``
         self.floor_set = False
         self.anchored = False
+        self.holds = False  # no apogee: the floor is in force and above zero (read every sample)
         self.floor_mmps = 0
         self.fall_um = 0
+        self.at_ms = 0  # the time the floor was carried on to
         self.floor_drag_mmps2 = 0
         self.rates = array("i", [0] * 6)  # _window_rates' output
 
@@ -153,16 +168,18 @@ def judge(bal, got, on_pad, coasting, now_ms):
         return True
     clean = now_ms - bal.fail_ms >= _CLEAN_MS  # (r1 and r2 held no earlier failure's fault)
     bal.fail_ms = now_ms
-    if bal.run == 1 and r[_START] >= bal.coast_ms and clean:
+    if bal.run == 1 and r[_START] >= bal.coast_ms and clean and bal.windows >= _LAW_WINDOWS:
         # the floor: r1 less its noise at r1's middle time, carried on to now
         drag = bal.drag_mmps2 + (noise * 100 // dt_cs >> 1)  # (the margin: see _NOISE_K)
         bal.floor_drag_mmps2 = drag if drag > 0 else 0
         bal.floor_mmps = r[_R1] - _NOISE_K * noise // 2
         bal.fall_um = 0
+        bal.at_ms = r[_T1]
         bal.floor_set = True
-        fall(bal, now_ms - r[_T1])
+        fall(bal, now_ms)
     elif bal.run >= _RUN and bal.floor_set:
         bal.anchored = True
+        bal.holds = bal.floor_mmps > 0
     return True
 
 
@@ -202,6 +219,40 @@ def _window_rates(arb, out):
     return True
 
 
+def set_from_track(bal, arb, now_ms):
+    """With both sensors, the barometer was left out in coast after correcting the filter long
+    enough (``Arbitration.set_anchor`` just ran): the floor from the filter's velocity at the
+    anchor less _ANCHOR_MARGIN_MMPS, with the drag the accelerometer's track shows over the 0.5 s
+    after the anchor (less the filter's bias estimate then) as the law at the anchor's speed, and
+    carried on to now."""
+    if bal.floor_set or not bal.tol_mmps:
+        return
+    t = arb._t
+    i = arb._head + 1
+    if i >= len(t):
+        i = 0
+    j = i + _WINDOW_SLOTS
+    if j >= len(t):
+        j -= len(t)
+    dt_cs = (t[j] - t[i]) // 10
+    v = arb.anchor_filter_mmps
+    if dt_cs <= 0 or v <= 0:
+        return
+    drag = -_clamp(arb._vel[j] - arb._vel[i]) * 100 // dt_cs + arb.anchor_bias_mmps2 - G_MMPS2
+    if drag < 0:
+        drag = 0
+    elif drag > _DRAG_LIMIT_MMPS2:
+        drag = _DRAG_LIMIT_MMPS2
+    speed = v // 1000
+    bal.floor_drag_mmps2 = drag
+    bal.speed2 = speed * speed if speed > 0 else 1
+    bal.floor_mmps = v - _ANCHOR_MARGIN_MMPS
+    bal.fall_um = 0
+    bal.floor_set = bal.anchored = bal.holds = True
+    bal.at_ms = arb.anchor_ms
+    fall(bal, now_ms)
+
+
 def _clamp(x):
     if x > _CHANGE_LIMIT_MMPS:
         return _CHANGE_LIMIT_MMPS
@@ -231,38 +282,44 @@ def _learn_drag(bal, before_mmps, dt_cs):
         speed = 0
     elif speed > _SPEED_LIMIT_MPS:
         speed = _SPEED_LIMIT_MPS
-    if bal.learnt:
+    n = bal.windows
+    if n:
         bal.drag_mmps2 += (drag - bal.drag_mmps2) // _DRAG_AVG_N
         bal.speed2 += (speed * speed - bal.speed2) // _DRAG_AVG_N
     else:
-        bal.learnt = True
         bal.drag_mmps2 = drag
         bal.speed2 = speed * speed
+    if n < _LAW_WINDOWS:
+        bal.windows = n + 1
 
 
-def fall(bal, dt_ms):
-    """Carry the floor on by ``dt_ms``: down at g + drag v^2 / speed2 while it is above zero
-    (Euler with the deceleration at the step's start: the floor stays below the exact one)."""
-    v = bal.floor_mmps
-    if v <= 0:
-        return
-    if dt_ms > _DT_LIMIT_MS:
-        dt_ms = _DT_LIMIT_MS
-    speed = (v + 999) // 1000  # (rounded up: more drag, a lower floor)
-    if speed > _SPEED_LIMIT_MPS:
-        speed = _SPEED_LIMIT_MPS
-    speed2 = bal.speed2 if bal.speed2 > 0 else 1
-    ratio = speed * speed * 256 // speed2
-    if ratio > _RATIO_LIMIT_256:
-        ratio = _RATIO_LIMIT_256
-    decel = G_MMPS2 + (bal.floor_drag_mmps2 * ratio >> 8)
-    if decel > _DECEL_LIMIT_MMPS2:
-        decel = _DECEL_LIMIT_MMPS2
-    um = bal.fall_um + decel * dt_ms  # (the fall's sub-mm/s remainder carried: um/s)
-    bal.floor_mmps = v - um // 1000
-    bal.fall_um = um % 1000
-
-
-def holds(bal):
-    """No apogee: the floor is set and above zero."""
-    return bal.anchored and bal.floor_mmps > 0
+def fall(bal, now_ms):
+    """Carry the floor on to ``now_ms`` (from ``bal.at_ms``: the samples' own clock, not their
+    whole milliseconds, which a board's jitter truncates by up to a tenth): down at
+    g + drag v^2 / speed2 while it is above zero, in steps of at most _DT_LIMIT_MS (Euler with the
+    deceleration at each step's start: the floor stays below the exact one)."""
+    dt_ms = now_ms - bal.at_ms
+    bal.at_ms = now_ms
+    while dt_ms > 0:
+        v = bal.floor_mmps
+        if v <= 0:
+            bal.holds = False
+            return
+        step = dt_ms if dt_ms < _DT_LIMIT_MS else _DT_LIMIT_MS
+        dt_ms -= step
+        speed = (v + 999) // 1000  # (rounded up: more drag, a lower floor)
+        if speed > _SPEED_LIMIT_MPS:
+            speed = _SPEED_LIMIT_MPS
+        speed2 = bal.speed2 if bal.speed2 > 0 else 1
+        ratio = speed * speed * 256 // speed2
+        if ratio > _RATIO_LIMIT_256:
+            ratio = _RATIO_LIMIT_256
+        decel = G_MMPS2 + (bal.floor_drag_mmps2 * ratio >> 8)
+        if decel > _DECEL_LIMIT_MMPS2:
+            decel = _DECEL_LIMIT_MMPS2
+        um = bal.fall_um + decel * step  # (the fall's sub-mm/s remainder carried: um/s)
+        v -= um // 1000
+        bal.floor_mmps = v
+        bal.fall_um = um % 1000
+        if v <= 0:
+            bal.holds = False

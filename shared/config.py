@@ -119,8 +119,8 @@ SCHEMA = {
     "baro_ballistic_mps": (10, 0, 500, "m/s",
         "apogee on the barometer alone: a barometric rate that changes beyond what a coasting rocket "
         "can (rising, or falling faster than its drag a moment before allows) by more than this (plus "
-        "3 x its learnt noise) sets a ballistic floor under the velocity; no apogee while it is above "
-        "zero (0 = off)"),
+        "3 x its learnt noise) sets a ballistic floor under the velocity; with both sensors the "
+        "barometer left out in coast sets it; no apogee while it is above zero (0 = off)"),
     "baro_stuck_s": (1.0, 0.2, 10, "s", "identical barometer readings for this long in flight: frozen"),
     "accel_stuck_s": (0.5, 0.1, 10, "s",
         "identical accelerometer readings for this long while above 1 g (noise expected): frozen"),

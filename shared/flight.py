@@ -59,8 +59,9 @@ and ``_apogee_enabled()``: coast, proven,
 above the proof climb, after the lockout, an averaged deceleration between ``coast_decel_mps2``
 and 10 g, the accelerometer's lowest possible velocity at or below ``apogee_guard_mps``, and,
 once the barometer was left out in coast, the accelerometer's velocity dead-reckoned from the
-filter's before the fault at or below ``dead_reckoning_guard_mps``; without an accelerometer in
-use, the ballistic floor (``shared/ballistic.py``) at or below zero.
+filter's before the fault at or below ``dead_reckoning_guard_mps``; and the ballistic floor
+(``shared/ballistic.py``: without an accelerometer in use, set by a barometric change no coasting
+rocket can make; with both sensors, by the barometer's exclusion) at or below zero.
 Without a usable barometer (``mode`` accel only) apogee is the accelerometer's highest possible
 velocity reaching zero (``_accel_only_apogee``); with no usable sensor, only the backup timer.
 The decision mode and the barometer's exclusion come from ``_arbitrate`` (docs/DESIGN.md D16).
@@ -434,8 +435,12 @@ class FlightComputer:
             if state == COAST:
                 bal = self.arb.ballistic
                 if bal.floor_set:
-                    ballistic.fall(bal, dt_ms)
-            enabled = state == COAST and _apogee_enabled(self, cfg, now_ms)
+                    ballistic.fall(bal, now_ms)
+                # nor while the ballistic floor is above zero (D16 rule 10; tested here, last,
+                # where it costs only the samples that pass every other test)
+                enabled = _apogee_enabled(self, cfg, now_ms) and not bal.holds
+            else:
+                enabled = False
             if cfg.baro_lag_ms and have & HAVE_BARO:
                 # the reading shows the altitude of baro_lag_ms ago: h(t) ~ h(t - lag) + v lag
                 # (velocity in cm/s so that the product stays in 31 bits)
@@ -711,8 +716,7 @@ def _apogee_enabled(fc, cfg, now_ms):
             and cfg.coast_decel_mmps2 << 4 <= -fc.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
             and (fc.coast_measured or not accel_ok)
             and (accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4
-                 and now_ms - fc.off_baro_ms >= cfg.baro_settle_ms
-                 and not ballistic.holds(arb.ballistic)))
+                 and now_ms - fc.off_baro_ms >= cfg.baro_settle_ms))
 
 
 def _update_averages(fc, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms):
@@ -1091,6 +1095,9 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         if old & MODE_BARO and not mode & MODE_BARO:
             arb.set_anchor()
             fc._filter_anchored = fc._baro_coast_ms >= _ANCHORED_MS
+            if state == COAST and fc._filter_anchored and fc.health.accel_ok:
+                # the ballistic floor from the anchor, with the accelerometer's drag (D16 rule 10)
+                ballistic.set_from_track(arb.ballistic, arb, now_ms)
             # the guard of _apogee_enabled: only an anchor whose bias the filter had learnt
             fc._dead_reckoning = fc._dead_reckoning or fc._filter_anchored
             fc._baro_coast_ms = 0

@@ -469,3 +469,31 @@ def test_summarize_counts_early_and_missed_drogues_per_class_and_method(tmp_path
     summary = json.loads(capsys.readouterr().out)["summary"]
     none_fc = [s for s in summary if s["class"] == "none" and s["method"] == "flight-computer"][0]
     assert none_fc["early"] == 0 and none_fc["flights"] == 1
+
+
+@pytest.fixture(scope="module")
+def bench_cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("fault_cache")
+
+
+@pytest.mark.parametrize("tol_mps, early", [(None, False), (0, True)], ids=["floor", "no_floor"])
+def test_a_floor_set_at_the_exclusion_holds_a_decay_the_dead_reckoning_misses(bench_cache, tol_mps, early):
+    """The fault benchmark's K400, flight 138, both sensors: +283 m within 0.43 s, 7.5 s before
+    apogee, decaying over 2.5 s. Left out, taken back 4 s later with its decay still lying by about
+    25 m/s; rule 9's wait yields to the dead-reckoning guard, whose velocity there is 7.5 m/s below
+    the true one (the bias estimate carried for 6.7 s): 0.78 s early. The ballistic floor set at
+    the exclusion, with the drag the accelerometer measured, holds it to 0.46 s early."""
+    from desktop.io.rocket_file import load_rocket
+
+    name, flight = "k400_dual_deploy", 138
+    nominal = bench.trajectory(name, 1, None, bench_cache)
+    main_m = load_rocket(bench._rocket_path(name)).main.deploy_altitude_m
+    user = bench.user_settings(nominal, main_m)
+    if tol_mps is not None:
+        user["baro_ballistic_mps"] = tol_mps
+    rows = bench.evaluate((name, bench.ROCKETS.index(name), flight % bench.DEFAULT_TRAJECTORIES, [flight], 1,
+                           bench_cache, user, nominal.max_mach, (("both",), {"transient_midcoast"},
+                                                                ("flight-computer",))))
+    (row,) = [r for r in rows if r["class"] == "transient_midcoast"]
+    assert abs(row["fault"]["dh_m"] - 282.6) < 0.1  # the flight traced in docs/DESIGN.md
+    assert (row["error_s"] < -EARLY_S) == early
