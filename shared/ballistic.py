@@ -39,6 +39,7 @@ except ImportError:
     def const(x):
         return x
 
+from shared.arbitration import _clamp  # (the arbitration's: x within +-limit)
 from shared.physics import G_MMPS2
 
 # The learnt noise is the mean |r0 - 2 r1 + r2|: about 2 standard deviations of one window's rate
@@ -114,7 +115,7 @@ class Ballistic:
         # not yet taken off it (um/s) and its drag at the speed whose square is ``speed2``
         self.floor_set = False
         self.anchored = False
-        self.holds = False  # no apogee: the floor is in force and above zero (read every sample)
+        self.holds = False  # no apogee: the floor is in force and above zero (the step reads it)
         self.floor_mmps = 0
         self.fall_um = 0
         self.at_ms = 0  # the time the floor was carried on to
@@ -139,7 +140,8 @@ def judge(bal, got, on_pad, coasting, now_ms):
         bal.coast_ms = -1
         if got and on_pad:  # (the pad: the rates are noise)
             r = bal.rates
-            _learn_noise(bal, _clamp(r[_R0] - r[_R1]) - _clamp(r[_R1] - r[_R2]))
+            _learn_noise(bal, _clamp(r[_R0] - r[_R1], _CHANGE_LIMIT_MMPS)
+                         - _clamp(r[_R1] - r[_R2], _CHANGE_LIMIT_MMPS))
         return False
     if bal.coast_ms < 0:
         bal.coast_ms = now_ms
@@ -151,8 +153,8 @@ def judge(bal, got, on_pad, coasting, now_ms):
     dt_cs = (r[_T1] - r[_T2]) // 10  # centiseconds: the products below stay in 31 bits
     if dt_cs <= 0:
         return False
-    change = _clamp(r[_R0] - r[_R1])
-    before = _clamp(r[_R1] - r[_R2])
+    change = _clamp(r[_R0] - r[_R1], _CHANGE_LIMIT_MMPS)
+    before = _clamp(r[_R1] - r[_R2], _CHANGE_LIMIT_MMPS)
     least = G_MMPS2 * dt_cs // 100  # the least a coasting rocket's rate falls over dt
     most = -before if -before > least else least  # the most, as drag does not grow
     if -most - tol <= change <= -least + tol:
@@ -169,14 +171,9 @@ def judge(bal, got, on_pad, coasting, now_ms):
     clean = now_ms - bal.fail_ms >= _CLEAN_MS  # (r1 and r2 held no earlier failure's fault)
     bal.fail_ms = now_ms
     if bal.run == 1 and r[_START] >= bal.coast_ms and clean and bal.windows >= _LAW_WINDOWS:
-        # the floor: r1 less its noise at r1's middle time, carried on to now
-        drag = bal.drag_mmps2 + (noise * 100 // dt_cs >> 1)  # (the margin: see _NOISE_K)
-        bal.floor_drag_mmps2 = drag if drag > 0 else 0
-        bal.floor_mmps = r[_R1] - _NOISE_K * noise // 2
-        bal.fall_um = 0
-        bal.at_ms = r[_T1]
-        bal.floor_set = True
-        fall(bal, now_ms)
+        # the floor: r1 less its noise at r1's middle time (the drag's margin: see _NOISE_K)
+        _set_floor(bal, r[_R1] - _NOISE_K * noise // 2,
+                   bal.drag_mmps2 + (noise * 100 // dt_cs >> 1), r[_T1], now_ms)
     elif bal.run >= _RUN and bal.floor_set:
         bal.anchored = True
         bal.holds = bal.floor_mmps > 0
@@ -205,12 +202,7 @@ def _window_rates(arb, out):
         span_ms = t[i] - t[j]
         if span_ms <= 0:
             return False
-        rise_mm = alt[i] - alt[j]
-        if rise_mm > _RISE_LIMIT_MM:
-            rise_mm = _RISE_LIMIT_MM
-        elif rise_mm < -_RISE_LIMIT_MM:
-            rise_mm = -_RISE_LIMIT_MM
-        out[k] = rise_mm * 1000 // span_ms
+        out[k] = _clamp(alt[i] - alt[j], _RISE_LIMIT_MM) * 1000 // span_ms
         if k:
             out[2 + k] = (t[i] + t[j]) >> 1
         i = j
@@ -238,27 +230,29 @@ def set_from_track(bal, arb, now_ms):
     v = arb.anchor_filter_mmps
     if dt_cs <= 0 or v <= 0:
         return
-    drag = -_clamp(arb._vel[j] - arb._vel[i]) * 100 // dt_cs + arb.anchor_bias_mmps2 - G_MMPS2
-    if drag < 0:
-        drag = 0
-    elif drag > _DRAG_LIMIT_MMPS2:
-        drag = _DRAG_LIMIT_MMPS2
+    drag = (-_clamp(arb._vel[j] - arb._vel[i], _CHANGE_LIMIT_MMPS) * 100 // dt_cs
+            + arb.anchor_bias_mmps2 - G_MMPS2)
     speed = v // 1000
-    bal.floor_drag_mmps2 = drag
     bal.speed2 = speed * speed if speed > 0 else 1
-    bal.floor_mmps = v - _ANCHOR_MARGIN_MMPS
+    _set_floor(bal, v - _ANCHOR_MARGIN_MMPS, drag, arb.anchor_ms, now_ms)
+    bal.anchored = True
+    bal.holds = bal.floor_mmps > 0
+
+
+def _set_floor(bal, floor_mmps, drag_mmps2, at_ms, now_ms):
+    """Set the floor (pending until ``anchored``) at ``floor_mmps`` at ``at_ms``, its drag
+    ``drag_mmps2`` (at the speed whose square is ``speed2``; within 0 to _DRAG_LIMIT_MMPS2, the
+    bound ``fall`` needs), and carry it on to ``now_ms``."""
+    if drag_mmps2 < 0:
+        drag_mmps2 = 0
+    elif drag_mmps2 > _DRAG_LIMIT_MMPS2:
+        drag_mmps2 = _DRAG_LIMIT_MMPS2
+    bal.floor_drag_mmps2 = drag_mmps2
+    bal.floor_mmps = floor_mmps
     bal.fall_um = 0
-    bal.floor_set = bal.anchored = bal.holds = True
-    bal.at_ms = arb.anchor_ms
+    bal.at_ms = at_ms
+    bal.floor_set = True
     fall(bal, now_ms)
-
-
-def _clamp(x):
-    if x > _CHANGE_LIMIT_MMPS:
-        return _CHANGE_LIMIT_MMPS
-    if x < -_CHANGE_LIMIT_MMPS:
-        return -_CHANGE_LIMIT_MMPS
-    return x
 
 
 def _learn_noise(bal, second_mmps):
@@ -272,11 +266,7 @@ def _learn_drag(bal, before_mmps, dt_cs):
     """Average the drag between r2 and r1 (their change ``before_mmps`` over ``dt_cs``, less g)
     and the square of their mean speed (the first window of the coast sets both)."""
     r = bal.rates
-    drag = -before_mmps * 100 // dt_cs - G_MMPS2
-    if drag > _DRAG_LIMIT_MMPS2:
-        drag = _DRAG_LIMIT_MMPS2
-    elif drag < -_DRAG_LIMIT_MMPS2:
-        drag = -_DRAG_LIMIT_MMPS2
+    drag = _clamp(-before_mmps * 100 // dt_cs - G_MMPS2, _DRAG_LIMIT_MMPS2)
     speed = ((r[_R1] + r[_R2]) >> 1) // 1000
     if speed < 0:
         speed = 0
