@@ -1,0 +1,63 @@
+"""The random-rocket benchmark's flight model against closed forms, and one rocket through it."""
+
+import math
+
+import numpy as np
+import pytest
+
+from desktop.sim.point_mass import point_mass_flight
+from desktop.sim.trajectory import G0, drag_free_vertical
+from tools import bench_family
+
+
+def test_a_vertical_flight_without_drag_is_the_closed_form():
+    flight = point_mass_flight(200.0, 2.0, 2.0, 0.0)
+    exact = drag_free_vertical(thrust_n=200.0, burn_time_s=2.0, dry_mass_kg=2.0)
+    assert flight.apogee_time_s == pytest.approx(exact.apogee_time_s, abs=0.02)  # 1 ms steps
+    assert flight.apogee_m == pytest.approx(exact.apogee_m, rel=2e-3)
+    # the accelerometer reads the thrust in boost and nothing in a drag-free coast
+    boost = flight.time_s < 1.9
+    assert np.allclose(flight.accel_mps2[boost], 100.0)
+    assert np.allclose(flight.accel_mps2[flight.time_s > 2.1], 0.0)
+
+
+def test_drag_rail_and_wind_lower_the_apogee_and_drag_decelerates_the_coast():
+    vertical = point_mass_flight(200.0, 2.0, 2.0, 0.0)
+    dragged = point_mass_flight(200.0, 2.0, 2.0, 0.002)
+    tilted = point_mass_flight(200.0, 2.0, 2.0, 0.002, rail_deg=10.0, wind_mps=8.0)
+    assert tilted.apogee_m < dragged.apogee_m < vertical.apogee_m
+    coast = (dragged.time_s > 2.1) & (dragged.time_s < dragged.apogee_time_s)
+    # in coast the axial specific force is the drag: negative, and shrinking as the rocket slows
+    assert np.all(dragged.accel_mps2[coast] < 0.0)
+    assert dragged.accel_mps2[coast][0] < dragged.accel_mps2[coast][-1]
+    # the vertical deceleration exceeds g by the drag (vertical flight)
+    dv = np.diff(dragged.velocity_mps[coast]) / np.diff(dragged.time_s[coast])
+    assert np.all(dv < -G0 + 1e-6)
+
+
+def test_a_thrust_that_cannot_leave_the_rail_is_refused():
+    with pytest.raises(ValueError):
+        point_mass_flight(10.0, 2.0, 2.0, 0.0)
+
+
+def test_draws_stay_in_their_ranges():
+    for i in range(200):
+        p = bench_family.draw_rocket(np.random.default_rng([1, i]))
+        assert 0.08 <= p["mass_kg"] <= 40.0
+        assert 4.0 <= p["thrust_n"] / (p["mass_kg"] * G0) <= 40.0
+        assert p["thrust_n"] / p["mass_kg"] * p["burn_s"] <= bench_family.MAX_IDEAL_DV_MPS * (1 + 1e-9)
+        assert 0.0 <= p["rail_deg"] <= 15.0 and 0.0 <= p["wind_mps"] <= 10.0
+
+
+def test_one_random_rocket_fault_free_on_both_boards():
+    rows = bench_family.fly_rocket((1, 0, ("none",), ("both", "baro")))
+    assert [r["board"] for r in rows] == ["both", "baro"]
+    for r in rows:
+        assert r["error_s"] is not None and abs(r["error_s"]) <= 0.3
+        assert math.isfinite(r["speed_at_drogue_mps"])
+
+
+def test_a_bad_option_is_one_line_and_exit_2(capsys):
+    assert bench_family.main(["--classes", "nonsense"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: unknown class 'nonsense'") and err.count("\n") == 1
