@@ -715,7 +715,11 @@ def _apogee_enabled(fc, cfg, now_ms):
                      and arb.dead_reckoned_mmps(now_ms) > cfg.dead_reckoning_guard_mmps)
             and cfg.coast_decel_mmps2 << 4 <= -fc.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
             and (fc.coast_measured or not accel_ok)
-            and (accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4
+            # without the accelerometer (D16 rule 5): the filter tracks the barometer and settled
+            # baro_settle_s since it was baro_diverged_m off it; after a clipped boost (its track
+            # bounds the velocity from below only) the settle alone (rule 11)
+            and (accel_ok and (arb.upper_valid or not arb.valid)
+                 or (accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4)
                  and now_ms - fc.off_baro_ms >= cfg.baro_settle_ms))
 
 

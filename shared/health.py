@@ -52,6 +52,7 @@ _ONE_G_MMPS2 = const(9807)
 # samples at 100 Hz, where a reading that only ties by chance (noise of a least significant bit
 # or more) changes within two or three.
 _CLIP_HOLD_MS = const(50)
+_CLIP_HOLD_N = const(2)  # held readings after the one that set the run: three equal readings
 
 
 class SensorHealth:
@@ -97,6 +98,10 @@ class SensorHealth:
         self._acc_run_ms = 0
         self._acc_peak = 0  # the largest accelerometer reading in flight (mm/s^2)
         self._acc_change_ms = 0  # when the accelerometer's reading last changed
+        # the run of readings held at the flight's largest: when its reading changed last (the
+        # run it counts) and its held readings so far
+        self._clip_run_ms = -1
+        self._clip_held_n = 0
 
 
 def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
@@ -169,8 +174,14 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
                 # held at the largest reading of the flight: the part's full scale (an
                 # unknown range, or a part that clips early: not below half its configured
                 # range), once held _CLIP_HOLD_MS (two equal readings at a noisy peak are
-                # chance); never frozen
-                if now_ms - health._acc_change_ms >= _CLIP_HOLD_MS:
+                # chance), over at least _CLIP_HOLD_N readings (two equal readings either side
+                # of a gap in the log are no run); never frozen
+                if health._clip_run_ms != health._acc_change_ms:
+                    health._clip_run_ms = health._acc_change_ms
+                    health._clip_held_n = 0
+                health._clip_held_n += 1
+                if (health._clip_held_n >= _CLIP_HOLD_N
+                        and now_ms - health._acc_change_ms >= _CLIP_HOLD_MS):
                     have &= HAVE_BARO
                     health.accel_clipped += 1
                     clipped = True

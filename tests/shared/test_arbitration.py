@@ -17,7 +17,7 @@ import shared.arbitration as arbitration_module
 import shared.flight as flight_module
 from shared.arbitration import Arbitration, add_baro, close_slot, integrate, judge_late
 from shared.config import Config, load_config
-from shared.detector import HAVE_BOTH
+from shared.detector import HAVE_BARO, HAVE_BOTH
 from shared.flight import EV_HEALTH, EV_LAUNCH, EV_MODE, MODE_ACCEL, MODE_BARO
 from shared.health import (
     HEALTH_ACCEL_STUCK,
@@ -476,6 +476,24 @@ def test_a_reading_held_at_the_flights_peak_is_clipped_only_when_held(held_sampl
         seen = seen or health.clipped
     assert seen == clipped
     assert not health.flags & HEALTH_ACCEL_STUCK
+
+
+def test_two_equal_readings_either_side_of_a_gap_are_no_clip():
+    # a log that writes the accelerometer in bursts (tests/support/row_layouts.py ``bursty``):
+    # the peak reading, 60 ms of barometer rows, then the same value again. By the clock the
+    # reading was held 60 ms, but two equal readings are one tie, not a run (three are: the test
+    # above): taken as clipped it voided the upper velocity bound of a real flight
+    # (2012-09-03-serial-336-flight-005 in that layout; docs/DESIGN.md D16 rule 11)
+    config = load_config({})
+    health = SensorHealth(config)
+    health.start_watch(config)
+    rows = [(140000 + 1000 * k, HAVE_BOTH) for k in range(10)] + [(150000, HAVE_BOTH)]
+    rows += [(0, HAVE_BARO)] * 5 + [(150000, HAVE_BOTH), (149000, HAVE_BOTH)]
+    seen = False
+    for i, (acc, have) in enumerate(rows):
+        check_health(health, 10 * i, 10, 100000 + 500 * i, acc, have, True)
+        seen = seen or health.clipped
+    assert not seen
 
 
 def test_a_held_peak_far_below_the_configured_range_is_not_clipped():
