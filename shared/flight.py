@@ -818,11 +818,15 @@ def _check_proof(fc, cfg, dt_ms):
     accelerometer's account of the boost agrees: its integrated speed reached proof_speed_mps
     and its integrated height proof_climb_m (a shove or a knock on the rail gives a few m/s; a
     pressure offset, a gust or a hand on the port moves no accelerometer). Barometer only (by
-    configuration, or the accelerometer lost before proof): proof_baro_climb_m held, above any
-    pad pressure disturbance, at proof_speed_mps. Accelerometer only (or the barometer lost):
+    configuration, the accelerometer lost before proof, or clipped short of proof_speed_mps):
+    proof_baro_climb_m held, above any pad pressure disturbance, at proof_speed_mps.
+    Accelerometer only (or the barometer lost):
     the filter's climb held, at proof_speed_mps, after a boost of 0.3 s."""
     baro_ok = fc.health.baro_ok
-    accel_ok = fc.health.accel_ok and fc.acc_account
+    # (a clipped account short of proof_speed_mps gives no account: it only under-reads, and the
+    # barometer alone proves the flight, as on a barometer-only board)
+    accel_ok = fc.health.accel_ok and fc.acc_account and not (
+        fc.acc_clipped and fc.acc_dv_max_mmps < cfg.proof_speed_mmps)
     if baro_ok:
         # the barometer's own reading, not the filter (a stuck accelerometer drags it up)
         climb_mm = fc.baro_agl_mm

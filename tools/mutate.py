@@ -141,6 +141,11 @@ MUTANTS = [
      "if (health._clip_held_n >= _CLIP_HOLD_N\n",
      "if (True\n",
      ARB_TESTS + "::test_two_equal_readings_either_side_of_a_gap_are_no_clip"),
+    ("a-clipped-account-short-of-the-proof-speed-proves-nothing", FLIGHT,
+     "fc.acc_clipped and fc.acc_dv_max_mmps < cfg.proof_speed_mmps)",
+     "False)",
+     "tests/tools/test_bench_faults.py::"
+     "test_a_low_flight_whose_accelerometer_clipped_is_proven_by_the_barometer"),
     ("apogee-waits-for-the-ballistic-floor", FLIGHT,
      "enabled = _apogee_enabled(self, cfg, now_ms) and not bal.holds",
      "enabled = _apogee_enabled(self, cfg, now_ms)",

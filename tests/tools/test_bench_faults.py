@@ -262,6 +262,17 @@ def test_a_clipped_boost_waits_for_the_filter_to_settle(supersonic, fraction_of_
     assert_within(supersonic, drogue, 0.1)
 
 
+def test_a_low_flight_whose_accelerometer_clipped_is_proven_by_the_barometer():
+    """A 4 kg rocket on a short 8 g boost to 190 m, its accelerometer clipping at a third of that:
+    the clipped readings integrate to less than proof_speed_mps, so the accelerometer's account
+    proves nothing, and the barometer alone proves the flight, as on a barometer-only board (its
+    100 m climb held a second). Before, such a flight was never proven: no drogue, no main."""
+    low = drag_flight(311.8, 0.91, 4.12, 0.0107)
+    assert 150.0 < low.apogee_m < 250.0
+    drogue, _ = run(low, fault("accel_clipped", fraction_of_peak=0.32), main_m=None)
+    assert_within(low, drogue, 0.3)
+
+
 @pytest.mark.parametrize("start_s", [2.0, 2.3])
 @pytest.mark.parametrize("baro_track_m", [10, 100], ids=["tracking_check", "tracking_check_widest"])
 def test_accelerometer_lost_late_in_boost_of_a_supersonic_flight(supersonic, start_s, baro_track_m):
