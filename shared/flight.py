@@ -177,6 +177,10 @@ COAST_ACC_MAX_Q4 = const(-78456)  # -0.5 g in 1/16 mm/s^2: the most a coasting r
 # -coast_decel_mps2. A filter re-converging from a large error (the barometer lying through Mach)
 # swings beyond -10 g; a tumbling rocket's (319-005) stays within it.
 _APOGEE_DECEL_MAX_MMPS2 = const(98067)
+# On the barometer alone the bound is 2 g: at apogee the vertical drag vanishes (it is the drag
+# times the vertical share of the speed), so a coasting rocket's vertical acceleration there is
+# -g; a filter beyond -2 g is still ringing from its boost, not describing a coast (D16 rule 12)
+_BARO_APOGEE_DECEL_MAX_MMPS2 = const(19613)
 
 # The filter's velocity is trusted as the start of an accelerometer-only bound only after the
 # barometer corrected it this long in coast: the bias model's settling (about 2.5 s) plus the
@@ -715,11 +719,13 @@ def _apogee_enabled(fc, cfg, now_ms):
                      and arb.dead_reckoned_mmps(now_ms) > cfg.dead_reckoning_guard_mmps)
             and cfg.coast_decel_mmps2 << 4 <= -fc.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
             and (fc.coast_measured or not accel_ok)
-            # without the accelerometer (D16 rule 5): the filter tracks the barometer and settled
-            # baro_settle_s since it was baro_diverged_m off it; after a clipped boost (its track
-            # bounds the velocity from below only) the settle alone (rule 11)
+            # without the accelerometer (D16 rule 5): the filter tracks the barometer, within 2 g
+            # of its deceleration (rule 12), and settled baro_settle_s since it was baro_diverged_m
+            # off it; after a clipped boost (its track bounds the velocity from below only) the
+            # settle alone (rule 11)
             and (accel_ok and (arb.upper_valid or not arb.valid)
-                 or (accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4)
+                 or (accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4
+                     and -fc.acc_avg_q4 <= _BARO_APOGEE_DECEL_MAX_MMPS2 << 4)
                  and now_ms - fc.off_baro_ms >= cfg.baro_settle_ms))
 
 

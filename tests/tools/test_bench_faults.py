@@ -262,6 +262,21 @@ def test_a_clipped_boost_waits_for_the_filter_to_settle(supersonic, fraction_of_
     assert_within(supersonic, drogue, 0.1)
 
 
+@pytest.mark.parametrize("start_s", [7.0, 8.0, 9.0])
+def test_baro_only_apogee_needs_a_coasting_deceleration(start_s):
+    """A 0.25 kg rocket on a 4.8 s, 23 g boost to Mach 0.94, on a barometer-only board: the
+    filter, a third-order model of the barometer alone, rings after so long a boost (its
+    acceleration at -7 g 3 s after burnout, its velocity 46 m/s slow). A barometer frozen at
+    8.0 s, as the Mach lockout ends, pulls that velocity through zero before the freeze is judged
+    (baro_stuck_s): drogue 5.7 s early. Near apogee a coasting rocket decelerates at g (the
+    vertical drag vanishes), so the filter decides only within 2 g of it (docs/DESIGN.md D16 rule
+    12): the freeze is judged, and the backup timer fires."""
+    long_burn = drag_flight(58.24, 4.805, 0.254, 0.001)
+    drogue, _ = run(long_burn, fault("baro_frozen", phase="coast", start_s=start_s), board="baro",
+                    main_m=None)
+    assert_not_early(long_burn, drogue)
+
+
 def test_a_low_flight_whose_accelerometer_clipped_is_proven_by_the_barometer():
     """A 4 kg rocket on a short 8 g boost to 190 m, its accelerometer clipping at a third of that:
     the clipped readings integrate to less than proof_speed_mps, so the accelerometer's account
