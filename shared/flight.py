@@ -1044,8 +1044,8 @@ def _pyro(fc, now_ms):
 
 def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
     """The decision mode from each sensor's health; the accelerometer's velocity bounds from
-    launch; in coast, the barometer left out while it disagrees with them. Returns ``have``
-    without an excluded barometer."""
+    launch; in coast (and in boost while no reading clipped), the barometer left out while it
+    disagrees with them. Returns ``have`` without an excluded barometer."""
     cfg = fc.cfg
     arb = fc.arb
     if arb.judge_due:
@@ -1098,7 +1098,11 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
             mode = MODE_BARO
     if cfg.has_accel and not flags & HEALTH_ACCEL_BAD and (valid or not fc.launched):
         mode |= MODE_ACCEL
-    excluded = coasting and mode == MODE_BOTH and not arb.baro_consistent
+    # (in boost too while the track bounds the velocity from both sides: a clipped part's
+    # track under-reads, and the barometer must be able to end a boost that a part stuck at full
+    # scale fakes)
+    excluded = (BOOST <= state <= COAST and not arb.baro_consistent and mode == MODE_BOTH
+                and (state != BOOST or arb.upper_valid))
     fc.baro_excluded = excluded
     if excluded:
         mode = MODE_ACCEL
