@@ -722,8 +722,9 @@ def _apogee_enabled(fc, cfg, now_ms):
             # without the accelerometer (D16 rule 5): the filter tracks the barometer, within 2 g
             # of its deceleration (rule 12), and settled baro_settle_s since it was baro_diverged_m
             # off it; after a clipped boost (its track bounds the velocity from below only) the
-            # settle alone (rule 11)
-            and (accel_ok and (arb.upper_valid or not arb.valid)
+            # settle alone (rule 11), and so once a frozen or lost accelerometer ended the track
+            # (not after a reset: there the resumed filter's own settle applies)
+            and (accel_ok and (arb.upper_valid or not arb.valid and fc.settle_until_ms)
                  or (accel_ok or fc.resid_sq_avg_q4 < cfg.baro_track_sq_q4
                      and -fc.acc_avg_q4 <= _BARO_APOGEE_DECEL_MAX_MMPS2 << 4)
                  and now_ms - fc.off_baro_ms >= cfg.baro_settle_ms))
