@@ -50,11 +50,6 @@ DEFAULT_SEED = 1
 MIN_APOGEE_M = 50.0  # proof_climb_m (30 m) held a second
 MIN_BARO_APOGEE_M = 150.0  # proof_baro_climb_m (100 m) held a second
 MAX_IDEAL_DV_MPS = 1100.0
-BOARDS = ("both", "baro")
-
-
-class FamilyError(Exception):
-    """A bad option (one-line message)."""
 
 
 def _log_uniform(rng, lo, hi):
@@ -113,7 +108,7 @@ def summarize(rows, early_s) -> list[dict]:
     """Per class and board: runs, early drogues, no drogue, p95 |error|, the earliest drogue."""
     out = []
     for kind in dict.fromkeys(r["class"] for r in rows):
-        for board in BOARDS:
+        for board in bench.BOARDS:
             sel = [r for r in rows if r["class"] == kind and r["board"] == board]
             if not sel:
                 continue
@@ -139,24 +134,29 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"seed (default {DEFAULT_SEED})")
     ap.add_argument("--classes", nargs="+", default=list(flt.CLASSES),
                     help="fault classes (default: all; docs/FAULTS.md)")
-    ap.add_argument("--boards", nargs="+", default=list(BOARDS), help="boards (default: both baro)")
+    ap.add_argument("--boards", nargs="+", default=list(bench.BOARDS), help="boards (default: both baro)")
     ap.add_argument("--workers", type=int, default=2, help="processes (default 2)")
     ap.add_argument("--json", action="store_true", help="print the summary and every run as JSON")
     ap.add_argument("--rows", metavar="FILE", help="also write every run here (JSON lines)")
     args = ap.parse_args(argv)
     try:
-        for option, given, known in (("class", args.classes, flt.CLASSES), ("board", args.boards, BOARDS)):
+        for option, given, known in (("class", args.classes, flt.CLASSES),
+                                     ("board", args.boards, bench.BOARDS)):
             for x in given:
                 if x not in known:
-                    raise FamilyError(f"unknown {option} {x!r} (known: {', '.join(known)})")
+                    raise bench.BenchError(f"unknown {option} {x!r} (known: {', '.join(known)})")
         if args.rockets < 1 or args.workers < 1:
-            raise FamilyError("--rockets and --workers must be at least 1")
-    except FamilyError as exc:
+            raise bench.BenchError("--rockets and --workers must be at least 1")
+    except bench.BenchError as exc:
         print(f"error: {exc}", file=sys.stderr)
+        return 2
+    try:
+        out = open(args.rows, "w") if args.rows else None
+    except OSError as exc:
+        print(f"error: --rows {args.rows}: cannot write: {exc.strerror}", file=sys.stderr)
         return 2
     tasks = [(args.seed, i, tuple(args.classes), tuple(args.boards)) for i in range(args.rockets)]
     rows = []
-    out = open(args.rows, "w") if args.rows else None
     try:
         with ProcessPoolExecutor(args.workers) as pool:
             for task_rows in tqdm(pool.map(fly_rocket, tasks), total=len(tasks), unit="rocket",

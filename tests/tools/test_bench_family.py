@@ -71,3 +71,9 @@ def test_a_track_ended_in_boost_waits_as_without_an_accelerometer():
     without the wait the filter, ringing from the boost, fired 3.2 s early at 35 m/s."""
     (row,) = bench_family.fly_rocket((4, 149, ("accel_clipped",), ("both",)))
     assert -0.5 <= row["error_s"] <= 1.0
+
+
+def test_an_unwritable_rows_file_is_one_line_and_exit_2(tmp_path, capsys):
+    assert bench_family.main(["--rockets", "1", "--rows", str(tmp_path / "no" / "rows.jsonl")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --rows ") and err.count("\n") == 1
