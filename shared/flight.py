@@ -278,6 +278,10 @@ class FlightComputer:
         self.acc_dv_mmps = 0  # speed integrated from the accelerometer since the push began
         self.acc_dv_max_mmps = 0
         self.acc_h_mm = 0  # height integrated from it
+        # both sensors: where the proof counts the two climbs from (the barometer's reading, mm
+        # above the pad, and acc_h_mm): the pad, or where the barometer last came back into use
+        self.proof_ref_baro_mm = 0
+        self.proof_ref_acc_mm = 0
         self.acc_clipped = False  # a clipped reading entered them: they are lower bounds
         # averaged measured kinematic acceleration, mm/s^2 (apogee gate, false launch; not kept
         # once proven and coast_measured)
@@ -311,10 +315,6 @@ class FlightComputer:
         self.pyro_backup_main = False
         self._det_phase = -1  # the phase the detector is configured for (see step)
         self._pulses = 0  # pulses on (_pyro ends them; 0: nothing to do)
-        self._drogue_off_ms = 0
-        self._main_off_ms = 0
-        self._backup_drogue_off_ms = 0
-        self._backup_main_off_ms = 0
         self._land_start_ms = 0
         self._land_min_mm = 0
         self._land_max_mm = 0
@@ -402,6 +402,9 @@ class FlightComputer:
             # after a reset, or the barometer back from an exclusion: its altitude, not its path
             self._reanchor = False
             kf.set_altitude(alt_mm)
+            # a proof still owed counts both climbs from here (_check_proof)
+            self.proof_ref_baro_mm = alt_mm - self.ground_alt_mm
+            self.proof_ref_acc_mm = self.acc_h_mm
         resuming = now_ms < self.settle_until_ms
         coasting = state == FAST or state == COAST
         if coasting and acc_kin > _NOT_DRAG_MMPS2:
@@ -542,7 +545,6 @@ class FlightComputer:
 
     def _fire_drogue(self):
         self.drogue_fired_ms = self.now_ms
-        self._drogue_off_ms = self.now_ms + self.cfg.pulse_ms
         self.pyro_drogue = True
         self._pulses += 1
         self.events |= EV_DROGUE
@@ -552,7 +554,6 @@ class FlightComputer:
 
     def _fire_main(self):
         self.main_fired_ms = self.now_ms
-        self._main_off_ms = self.now_ms + self.cfg.pulse_ms
         self.pyro_main = True
         self._pulses += 1
         self.events |= EV_MAIN
@@ -560,14 +561,12 @@ class FlightComputer:
 
     def _fire_backup_drogue(self):
         self.backup_drogue_fired_ms = self.now_ms
-        self._backup_drogue_off_ms = self.now_ms + self.cfg.pulse_ms
         self.pyro_backup_drogue = True
         self._pulses += 1
         self.events |= EV_BACKUP_DROGUE
 
     def _fire_backup_main(self):
         self.backup_main_fired_ms = self.now_ms
-        self._backup_main_off_ms = self.now_ms + self.cfg.pulse_ms
         self.pyro_backup_main = True
         self._pulses += 1
         self.events |= EV_BACKUP_MAIN
@@ -817,6 +816,13 @@ def _integrate_accel(fc, state, dt_ms, acc_kin, clipped):
         fc.acc_h_mm = h
 
 
+def _climbs_agree(baro_mm, acc_mm, clipped):
+    """The barometer's climb and the accelerometer's integrated one agree within _AGREE_MM and a
+    quarter of the climb (``clipped``: the accelerometer's is a lower bound)."""
+    diff = baro_mm - acc_mm
+    return -_AGREE_MM - (baro_mm >> 2) <= diff and (clipped or diff <= _AGREE_MM + (baro_mm >> 2))
+
+
 def _check_proof(fc, cfg, dt_ms):
     """flight_proven, once true, stays true (every firing path requires it); launched and not
     yet proven (the caller's test).
@@ -841,12 +847,19 @@ def _check_proof(fc, cfg, dt_ms):
     else:
         climb_mm = fc.agl_mm
         line_mm = cfg.proof_climb_mm
-    agree = True
+    held = climb_mm >= line_mm
     if baro_ok and accel_ok:
-        diff = climb_mm - fc.acc_h_mm
-        agree = -_AGREE_MM - (climb_mm >> 2) <= diff and (
-            fc.acc_clipped or diff <= _AGREE_MM + (climb_mm >> 2))  # clipped: a lower bound
-    if climb_mm >= line_mm and agree:
+        clipped = fc.acc_clipped
+        held = held and _climbs_agree(climb_mm, fc.acc_h_mm, clipped)
+        if not held:
+            # or both climbs from where the barometer last came back into use: the offset it came
+            # back with (a transient held from burnout: airbrakes open) is no climb, and left a
+            # real flight unproven, with nothing fired (from the pad, a transient still decaying
+            # when it came back is no climb either: either account proves)
+            climb_mm -= fc.proof_ref_baro_mm
+            held = climb_mm >= line_mm and _climbs_agree(
+                climb_mm, fc.acc_h_mm - fc.proof_ref_acc_mm, clipped)
+    if held:
         fc.climb_ms += dt_ms
     elif fc.climb_ms > dt_ms:
         fc.climb_ms -= dt_ms  # a noisy reading below the line costs only its own time
@@ -982,6 +995,7 @@ def _false_launch(fc, cfg):
     fc.boost_ms = fc.boost_max_ms = fc.climb_ms = 0
     fc.max_agl_mm = fc.max_vel_mmps = 0
     fc.acc_dv_mmps = fc.acc_dv_max_mmps = fc.acc_h_mm = 0
+    fc.proof_ref_baro_mm = fc.proof_ref_acc_mm = 0
     fc.acc_clipped = False
     fc.coast_measured = False
     fc.errors |= ERR_FALSE_LAUNCH
@@ -1025,17 +1039,18 @@ def _landing_rule(fc, cfg):
 
 
 def _pyro(fc, now_ms):
-    """Each pulse ends when its time is over (while any is on: the caller's test)."""
-    if fc.pyro_drogue and now_ms >= fc._drogue_off_ms:
+    """Each pulse ends pulse_ms after it fired (while any is on: the caller's test)."""
+    pulse_ms = fc.cfg.pulse_ms
+    if fc.pyro_drogue and now_ms - fc.drogue_fired_ms >= pulse_ms:
         fc.pyro_drogue = False
         fc._pulses -= 1
-    if fc.pyro_main and now_ms >= fc._main_off_ms:
+    if fc.pyro_main and now_ms - fc.main_fired_ms >= pulse_ms:
         fc.pyro_main = False
         fc._pulses -= 1
-    if fc.pyro_backup_drogue and now_ms >= fc._backup_drogue_off_ms:
+    if fc.pyro_backup_drogue and now_ms - fc.backup_drogue_fired_ms >= pulse_ms:
         fc.pyro_backup_drogue = False
         fc._pulses -= 1
-    if fc.pyro_backup_main and now_ms >= fc._backup_main_off_ms:
+    if fc.pyro_backup_main and now_ms - fc.backup_main_fired_ms >= pulse_ms:
         fc.pyro_backup_main = False
         fc._pulses -= 1
 

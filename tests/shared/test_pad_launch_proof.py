@@ -22,6 +22,7 @@ from shared.flight import (
     EV_DROGUE,
     EV_LAUNCH,
     EV_MAIN,
+    EV_MODE,
     PAD,
     FlightComputer,
 )
@@ -138,6 +139,24 @@ def test_shove_with_pressure_offset_never_fires(offset_m):
     dts, alts, accs = pad(60, seed=22)
     accs[1000:1010] += int(2.5 * G)  # 2.5 g for 0.2 s: a shove on the rail
     alts += offset_profile(len(dts), 50, 1000, offset_m * 1000, 0.5, None)  # and it stays
+    assert_never_fires(dts, alts, accs, "both")
+
+
+def test_a_knock_a_pressure_step_taken_back_and_a_climbing_pressure_never_fire():
+    """The proof counts both climbs from where the barometer came back into use (D13). A knock
+    above proof_speed_mps (20 g for 0.16 s, and the rocket dropped back 0.3 s later) launches the
+    board; its 80 m pressure step is left out and taken back; then the pressure climbs 60 m over
+    4 s (the av-bay being sealed) with the board at rest: that climb is not the accelerometer's,
+    and nothing fires."""
+    dts, alts, accs = pad(60, seed=41)
+    knock = 1000
+    accs[knock:knock + 8] += 20 * G
+    accs[knock + 15:knock + 23] -= 20 * G
+    alts += offset_profile(len(dts), 50, knock, 80000, 0, None)
+    alts += offset_profile(len(dts), 50, knock + 100, 60000, 4, None)
+    _, events, _ = run(dts, alts, accs, HAVE_BOTH, sensors="both", **ALL_ON)
+    modes = [i for i, e in events if e & EV_MODE]
+    assert first(events, EV_LAUNCH) == knock + 4 and len(modes) == 2 and modes[1] < knock + 100
     assert_never_fires(dts, alts, accs, "both")
 
 

@@ -302,6 +302,31 @@ def test_a_low_flight_whose_accelerometer_clipped_is_proven_by_the_barometer():
     assert_within(low, drogue, 0.3)
 
 
+@pytest.fixture(scope="module")
+def small_rocket():
+    # 0.6 kg on 70 N for 0.77 s: 80 m/s at burnout, apogee 260 m at 7.2 s
+    return drag_flight(70.0, 0.77, 0.6, 0.002)
+
+
+@pytest.mark.parametrize("dh_m, late_s", [(280.0, 0.3), (-280.0, bench.BACKUP_MARGIN_S + 0.3)])
+def test_an_offset_held_from_burnout_still_proves_the_flight(small_rocket, dh_m, late_s):
+    """A pressure offset as large as the flight, from just after burnout to apogee (airbrakes
+    open): the barometer comes back into use 1.5 s later, agreeing with the accelerometer's
+    rates, but its reading, offset since, never agreed with the height integrated from the
+    accelerometer since the pad. The flight was never proven: no drogue, no main, and 10 s after
+    launch, descending near terminal speed (reading 1 g, as on the pad), the board went back to
+    pad mode. Counted from where the barometer came back, the two climbs agree. Reading 280 m
+    high, the drogue fires at apogee; reading below the pad, the filter is below the proof climb,
+    where no apogee is decided, and the backup timer fires it."""
+    assert 200.0 < small_rocket.apogee_m < 320.0
+    start_s = small_rocket.burnout_time_s + 0.07
+    drogue, _ = run(small_rocket, fault("transient_burnout", dh_m=dh_m, start_s=start_s, rise_s=0.43,
+                                        decay_s=2.1, hold_until_s=small_rocket.apogee_time_s),
+                    main_m=None)
+    assert_not_early(small_rocket, drogue)
+    assert drogue - small_rocket.apogee_time_s <= late_s
+
+
 @pytest.mark.parametrize("start_s", [2.0, 2.3])
 @pytest.mark.parametrize("baro_track_m", [10, 100], ids=["tracking_check", "tracking_check_widest"])
 def test_accelerometer_lost_late_in_boost_of_a_supersonic_flight(supersonic, start_s, baro_track_m):
