@@ -96,7 +96,9 @@ SCHEMA = {
     "baro_readmit_mps": (20, 1, 500, "m/s",
         "below baro_change_below_mps, a barometer left out in coast comes back only when its rate "
         "agrees within this (plus 3 x its learnt noise and the margin grown since) with the "
-        "accelerometer's velocity carried on from the filter's before the fault"),
+        "accelerometer's velocity carried on from the filter's before the fault; taken back climbing "
+        "faster than the filter's velocity by more than this, that velocity below it, it gives the "
+        "filter its rate"),
     "baro_back_slow_mps": (5, 0, 100, "m/s",
         "a barometer taken back reading this much (plus 3 x its learnt noise) slower than the "
         "accelerometer's velocity since the fault does not decide apogee for baro_settle_s"),

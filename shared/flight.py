@@ -402,6 +402,9 @@ class FlightComputer:
             # after a reset, or the barometer back from an exclusion: its altitude, not its path
             self._reanchor = False
             kf.set_altitude(alt_mm)
+            # the distance to the barometer starts again from here too: the average of the old
+            # filter's (out of use, it was not updated) is no measure of this one (D16 rule 13)
+            self.resid_sq_avg_q4 = 0
             # a proof still owed counts both climbs from here (_check_proof)
             self.proof_ref_baro_mm = alt_mm - self.ground_alt_mm
             self.proof_ref_acc_mm = self.acc_h_mm
@@ -1139,6 +1142,19 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
             fc._reanchor = True
             if mode & MODE_ACCEL and reads_slow(arb, cfg.baro_back_slow_mmps):
                 fc.baro_back_ms = now_ms
+            if state == COAST and not arb.upper_valid:
+                # after a clipped boost, taken back climbing faster than the filter's velocity by
+                # more than baro_readmit_mps while that velocity is below it (apogee near, or
+                # past): the filter's velocity is not the motion (the clip left it wrong, and the
+                # anchor with it; taken back after 10 s, it crossed zero at once, 4.4 s before
+                # apogee at 44 m/s), and it takes the barometer's rate, erring late if the
+                # barometer lies fast (D16 rule 13). An unclipped track carried the velocity
+                # on within its bounds, and the barometer came back agreeing with them
+                kf = fc.kf
+                vel_mmps = kf.vel_q4 >> 4
+                fast = cfg.baro_readmit_mmps
+                if vel_mmps < fast and arb.baro_rate_mmps - vel_mmps > fast:
+                    kf.vel_q4 = arb.baro_rate_mmps << 4
         fc.mode = mode
         fc.events |= EV_MODE
     if not mode & MODE_BARO:
