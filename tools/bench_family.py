@@ -140,20 +140,12 @@ def main(argv=None) -> int:
     ap.add_argument("--rows", metavar="FILE", help="also write every run here (JSON lines)")
     args = ap.parse_args(argv)
     try:
-        for option, given, known in (("class", args.classes, flt.CLASSES),
-                                     ("board", args.boards, bench.BOARDS)):
-            for x in given:
-                if x not in known:
-                    raise bench.BenchError(f"unknown {option} {x!r} (known: {', '.join(known)})")
+        bench.check_choices((("class", args.classes, flt.CLASSES), ("board", args.boards, bench.BOARDS)))
         if args.rockets < 1 or args.workers < 1:
             raise bench.BenchError("--rockets and --workers must be at least 1")
+        out = bench.open_rows(args.rows)
     except bench.BenchError as exc:
         print(f"error: {exc}", file=sys.stderr)
-        return 2
-    try:
-        out = open(args.rows, "w") if args.rows else None
-    except OSError as exc:
-        print(f"error: --rows {args.rows}: cannot write: {exc.strerror}", file=sys.stderr)
         return 2
     tasks = [(args.seed, i, tuple(args.classes), tuple(args.boards)) for i in range(args.rockets)]
     rows = []

@@ -73,6 +73,25 @@ class BenchError(ValueError):
     """Bad command-line input (one line)."""
 
 
+def check_choices(choices):
+    """BenchError for the first given value that its option does not know (``choices``:
+    (option, given values, known values) triples)."""
+    for option, given, known in choices:
+        for x in given:
+            if x not in known:
+                raise BenchError(f"unknown {option} {x!r} (known: {', '.join(known)})")
+
+
+def open_rows(path):
+    """The --rows file opened for writing (None without one); BenchError if it cannot be."""
+    if not path:
+        return None
+    try:
+        return open(path, "w")
+    except OSError as exc:
+        raise BenchError(f"--rows {path}: cannot write: {exc.strerror}") from None
+
+
 # --------------------------------------------------------------------------------------------------
 # Trajectories (cached)
 
@@ -483,14 +502,8 @@ def main(argv=None) -> int:
             print(line)
         return 0
     try:
-        for r in args.rockets:
-            if r not in ROCKETS:
-                raise BenchError(f"unknown rocket {r!r} (known: {', '.join(ROCKETS)})")
-        for option, given, known in (("class", args.classes, flt.CLASSES), ("board", args.boards, BOARDS),
-                                     ("method", args.methods, METHODS)):
-            for x in given:
-                if x not in known:
-                    raise BenchError(f"unknown {option} {x!r} (known: {', '.join(known)})")
+        check_choices((("rocket", args.rockets, ROCKETS), ("class", args.classes, flt.CLASSES),
+                       ("board", args.boards, BOARDS), ("method", args.methods, METHODS)))
         if args.flights < 1 or args.trajectories < 1 or args.workers < 1:
             raise BenchError("--flights, --trajectories and --workers must be at least 1")
     except BenchError as exc:
@@ -504,9 +517,9 @@ def main(argv=None) -> int:
             print(f"error: --resume {args.resume}: cannot read the rows: {exc}", file=sys.stderr)
             return 2
     try:
-        rows_file = open(args.rows, "w") if args.rows else None
-    except OSError as exc:
-        print(f"error: --rows {args.rows}: cannot write: {exc.strerror}", file=sys.stderr)
+        rows_file = open_rows(args.rows)  # (after the resume's read: it may be the same file)
+    except BenchError as exc:
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     cache = None if args.cache == "none" else Path(args.cache)
     trajectories = min(args.trajectories, args.flights)

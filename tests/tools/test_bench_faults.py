@@ -327,8 +327,14 @@ def test_an_offset_held_from_burnout_still_proves_the_flight(small_rocket, dh_m,
     assert drogue - small_rocket.apogee_time_s <= late_s
 
 
+@pytest.fixture(scope="module")
+def clipping_rocket():
+    # 5 kg on 1931 N for 2.15 s: 38 g, Mach 1.75, apogee 3.8 km at 22.9 s
+    return drag_flight(1931.0, 2.15, 5.15, 0.004)
+
+
 @pytest.mark.parametrize("dh_m", [74.0, -74.0])
-def test_a_barometer_taken_back_climbing_faster_than_the_filter_gives_it_its_rate(dh_m):
+def test_a_barometer_taken_back_climbing_faster_than_the_filter_gives_it_its_rate(clipping_rocket, dh_m):
     """A 5 kg rocket at 38 g on a 16 g part (Mach 1.75, apogee 3.8 km at 22.9 s): the clipped
     boost leaves the filter's velocity wrong, and the arbitration's anchor with it. A 74 m transient
     at 7.6 s has the barometer left out for 15 s; taken back, it climbs at 47 m/s while the filter,
@@ -336,7 +342,7 @@ def test_a_barometer_taken_back_climbing_faster_than_the_filter_gives_it_its_rat
     apogee (on a 2-D flight of the random rockets, 4.4 s before apogee at 44 m/s). Given the
     barometer's rate (D16 rule 13), and its distance to the barometer measured afresh, the drogue
     is not early, and comes before the backup timer."""
-    traj = drag_flight(1931.0, 2.15, 5.15, 0.004)
+    traj = clipping_rocket
     assert traj.accel_mps2.max() > 30 * G0 and 3500.0 < traj.apogee_m < 4200.0
     drogue, _ = run(traj, fault("transient_midcoast", dh_m=dh_m, start_s=7.6, rise_s=0.45, decay_s=0.54,
                                 hold_until_s=None),
