@@ -28,7 +28,8 @@ Transitions (``_transition``), each branch opening with its rule:
 | state | to | condition | configuration key |
 |---|---|---|---|
 | pad | boost | boost acceleration sustained (barometer-only: proof climb | `launch_accel_mps2`, |
-| | | and speed); never with ERR_ORIENTATION or ERR_BARO_ERRATIC | `launch_accel_time_s` |
+| | | and speed); never with ERR_ORIENTATION; the height never | `launch_accel_time_s` |
+| | | with ERR_BARO_ERRATIC | |
 | boost..coast | pad | not proven within 10 s of launch, still near the pad | `proof_climb_m` |
 | boost | fast/coast | filtered acceleration below -2.5 m/s^2, or the timeout | `max_boost_s` |
 | fast/coast | boost | ignition: the boost acceleration sustained again (staging, | `launch_accel_mps2`, |
@@ -887,13 +888,15 @@ def _transition(fc, cfg, state, apogee):
     """One branch per state, each opening with its rule (the table in the module docstring)."""
     if state == PAD:
         # launch: the boost sustained (barometer-only: the proof climb at the proof speed);
-        # refused while the board is not upright or the barometer is erratic
-        if fc.errors & (ERR_ORIENTATION | ERR_BARO_ERRATIC):
+        # refused while the board is not upright; an erratic barometer refuses only its own
+        # account (the height), not a boost the accelerometer measures
+        if fc.errors & ERR_ORIENTATION:
             return
-        # or the height and speed (low thrust-to-weight, barometer-only boards)
         boost = cfg.has_accel and fc.boost_ms >= cfg.launch_accel_ms
+        # or the height and speed (low thrust-to-weight, barometer-only boards)
         # (with an accelerometer, while it pushes: its integral reached launch_speed_mps)
-        height = (fc.agl_mm >= cfg.launch_height_mm and fc.vel_mmps >= cfg.launch_speed_mmps
+        height = (not fc.errors & ERR_BARO_ERRATIC
+                  and fc.agl_mm >= cfg.launch_height_mm and fc.vel_mmps >= cfg.launch_speed_mmps
                   and (not fc.health.accel_ok or fc.acc_dv_mmps >= cfg.launch_speed_mmps))
         if boost or height:
             fc._launch(not boost)

@@ -44,7 +44,7 @@ _QUIET_SPEED_MMPS = const(3000)
 # Error flags (bits of FlightComputer.errors that this module owns).
 ERR_ORIENTATION = const(1)  # pad accelerometer reading is not about +1 g
 ERR_PAD_BARO_STEP = const(4)  # the barometer jumped on the pad (re-based)
-ERR_BARO_ERRATIC = const(8)  # repeated jumps on the pad: a faulty barometer; launch is forbidden
+ERR_BARO_ERRATIC = const(8)  # repeated jumps on the pad: a faulty barometer; no launch by height
 PAD_ERRORS = const(13)  # ERR_ORIENTATION | ERR_PAD_BARO_STEP | ERR_BARO_ERRATIC
 # The ground at launch is the reference as it stood at least this long before the launch sample
 # (two history slots of _HISTORY_MS): ignition, first motion and a bad reading on the launch
