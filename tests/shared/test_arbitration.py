@@ -511,6 +511,23 @@ def test_a_held_peak_far_below_the_configured_range_is_not_clipped():
     assert not seen
 
 
+@pytest.mark.parametrize("rocket,every,spike_m", [(SUBSONIC_ROCKET, 4, -90.0), (MACH14_ROCKET, 6, -85.0)])
+def test_a_barometer_glitching_faster_than_any_rocket_is_not_used(rocket, every, spike_m):
+    # a barometer (a flaky bus) reading 85 to 90 m low in every fourth or sixth reading from
+    # ignition to after apogee: each glitch moves faster than baro_rate_max_mps from the reading
+    # before it, so neither it nor the reading after it is used. In the boost the filter's gate
+    # is 100 m wide, and the glitches let in there put the drogue 0.41 s early on the subsonic
+    # rocket and 0.98 s late on the Mach 1.65 one; left out, both fire at apogee
+    import dataclasses
+
+    fl = flight(rocket)
+    alt_mm = fl.alt_mm.copy()
+    alt_mm[np.flatnonzero((fl.time_s > 0.05) & (fl.time_s < fl.apogee_s + 5))[::every]] += int(spike_m * 1000)
+    out = run(dataclasses.replace(fl, alt_mm=alt_mm), backup_drogue_s=round(fl.apogee_s + 3))
+    assert out.fc.health.baro_spikes > 0
+    assert abs(out.early_s) <= 0.1, "drogue %.2f s before apogee" % out.early_s
+
+
 def test_accelerometer_frozen_flags_health():
     fl = flight(SUBSONIC_ROCKET, Faults(accel_frozen_at_s=1.0))  # in boost, at 20+ g
     out = run(fl, backup_drogue_s=round(fl.apogee_s + 3))
