@@ -130,7 +130,7 @@ MUTANTS = [
     ("apogee-above-proof-climb", FLIGHT,
      "and fc.agl_mm >= cfg.proof_climb_mm\n",
      "\n",
-     PAD_TESTS + "::test_apogee_needs_proof_of_flight"),
+     PAD_TESTS + "::test_no_apogee_on_the_ground_after_a_lockout_that_outlasted_the_flight"),
     ("resume-settle", FLIGHT,
      "and now_ms >= fc.settle_until_ms",
      "",

@@ -376,6 +376,28 @@ def test_apogee_needs_proof_of_flight():
     assert first(events, EV_LAUNCH) is not None and first(events, EV_APOGEE) is None and not pyro
 
 
+@pytest.mark.parametrize("sensors,rest_g", [("baro", 0), ("both", 0), ("both", -1)])
+def test_no_apogee_on_the_ground_after_a_lockout_that_outlasted_the_flight(sensors, rest_g):
+    # a weak motor: 150 m instead of the simulation's flight, and the Mach time lockout set from
+    # that simulation (15 s) outlasts it. The rocket falls ballistically, hits the ground at
+    # 55 m/s 11.7 s after launch and lies there (on its side, or nose down in the dirt). In coast
+    # the filter's acceleration is clamped at -0.5 g (no upward push), so the deceleration gate
+    # passes a rocket at rest: only the altitude above proof_climb_m keeps the drogue from firing
+    # on the ground when the lockout ends (the backup timer, off by default, would fire regardless)
+    dts, alts, accs, truth, apogee = flight(boost_mmps2=50000, burn_ms=1000, descent_mps=1000,
+                                            after_apogee_s=8)
+    hit = apogee + int(np.argmax(truth[apogee:] <= 300000))
+    rng = np.random.default_rng(5)
+    rest = 3000  # 30 s on the ground
+    dts = np.concatenate([dts[:hit], np.full(rest, 10000)])
+    alts = np.concatenate([alts[:hit], 300000 + rng.normal(0, 1000, rest).astype(np.int64)])
+    accs = np.concatenate([accs[:hit], rest_g * G + rng.normal(0, 300, rest).astype(np.int64)])
+    have = HAVE_BARO if sensors == "baro" else HAVE_BOTH
+    fc, events, pyro = run(dts, alts, accs, have, sensors=sensors, mach_lockout_s=15)
+    assert first(events, EV_LAUNCH) is not None and fc.flight_proven
+    assert first(events, EV_APOGEE) is None and not pyro
+
+
 def test_main_only_while_descending():
     # the backup timer fires the drogue in the climb (at proof, 160 m): after the guard time the
     # rocket is still below main_deploy_m + main_margin_m, but climbing: the main waits for the
