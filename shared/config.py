@@ -99,6 +99,15 @@ SCHEMA = {
         "accelerometer's velocity carried on from the filter's before the fault; taken back climbing "
         "faster than the filter's velocity by more than this, that velocity below it, it gives the "
         "filter its rate"),
+    "baro_lie_max_m": (1200, 300, 5000, "m",
+        "the largest barometric error that is not motion (a static-port error of 10 % of pressure "
+        "through Mach, 880 m, and a transient): a barometer left out that parts from the "
+        "accelerometer-carried filter by more than this plus the accelerometer's own error since "
+        "shows that the accelerometer lies, and it is not used for the rest of the flight"),
+    "baro_transient_max_m": (300, 50, 5000, "m",
+        "the largest pressure transient (airbrakes, an ejection): at an accelerometer-only apogee the "
+        "rocket is slow (no static-port error), and a barometer left out that lies farther than this "
+        "plus the accelerometer's own error since from the accelerometer-carried filter holds it"),
     "baro_back_slow_mps": (5, 0, 100, "m/s",
         "a barometer taken back reading this much (plus 3 x its learnt noise) slower than the "
         "accelerometer's velocity since the fault does not decide apogee for baro_settle_s"),

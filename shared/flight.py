@@ -64,8 +64,10 @@ filter's before the fault at or below ``dead_reckoning_guard_mps``; and the ball
 (``shared/ballistic.py``: without an accelerometer in use, set by a barometric change no coasting
 rocket can make; with both sensors, by the barometer's exclusion) at or below zero.
 Without a usable barometer (``mode`` accel only) apogee is the accelerometer's highest possible
-velocity reaching zero (``_accel_only_apogee``); with no usable sensor, only the backup timer.
-The decision mode and the barometer's exclusion come from ``_arbitrate`` (docs/DESIGN.md D16).
+velocity reaching zero, with the filter's (``_accel_only_apogee``); with no usable sensor, only the
+backup timer. The decision mode and the barometer's exclusion come from ``_arbitrate``
+(docs/DESIGN.md D16); there an accelerometer that a live barometer contradicts beyond any
+barometric error is retired for the flight (rule 14).
 
 The backup channels (``_backup_rule``, off by default) change no state: each fires at most once,
 only after its primary fired and never on the ground (landed).
@@ -187,6 +189,17 @@ _BARO_APOGEE_DECEL_MAX_MMPS2 = const(19613)
 # barometer corrected it this long in coast: the bias model's settling (about 2.5 s) plus the
 # 1.6 s of history the anchor reaches back (shared/arbitration.py)
 _ANCHORED_MS = const(4000)
+# A barometer that parted from the filter beyond any barometric error retires the accelerometer
+# (D16 rule 14) only if it read nothing impossible (a spike, shared/health.py) for this long:
+# readings of a broken part (random kilometres) part from anything
+_BARO_CLEAN_MS = const(2000)
+# Nor can an accelerometer read one value near zero (within _HELD_NEAR_ZERO_MMPS2: a failed bus
+# reads zero bytes, 0 or -1 LSB) for accel_stuck_s while the rocket climbs faster than
+# _HELD_FAST_MMPS: its drag is then larger, and changes by a part's least significant bit within
+# tenths of a second. (The real logs hold a value longest at 39 m/s: -1.09 m/s^2 for 1.36 s, a
+# 0.54 m/s^2 part 5 s before apogee; and at full scale in a clipped boost, far from zero.)
+_HELD_FAST_MMPS = const(50000)
+_HELD_NEAR_ZERO_MMPS2 = const(490)  # 0.05 g
 _DESCENT_MIN_MMPS = const(2000)  # a slower "descent" under a parachute is not one to predict from
 # the descent rate predicts the main's time only once it is steady (the parachute open, drag =
 # weight): the filter's acceleration small, and its velocity and the barometer's rate agreeing
@@ -1116,6 +1129,22 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
                 # the ballistic test of a coast without the accelerometer (shared/ballistic.py;
                 # its noise learnt on a barometer-only board's pad)
                 ballistic.check(arb.ballistic, arb, state == PAD, state == COAST, now_ms)
+            health = fc.health
+            if fc.baro_excluded and now_ms - health.baro_spike_ms >= _BARO_CLEAN_MS and (
+                    arb.parted_beyond_lie(kf.alt_q4 >> 4, now_ms, arb.lie_max_mm)
+                    or arb.baro_rate_mmps > _HELD_FAST_MMPS
+                    and health.accel_held_near_zero_ms(now_ms, _HELD_NEAR_ZERO_MMPS2) >= cfg.accel_stuck_ms):
+                # left out, alive (no impossible reading for _BARO_CLEAN_MS, a reading in every
+                # slot), and farther from the accelerometer-carried filter than any barometric
+                # error, or climbing faster than _HELD_FAST_MMPS while the accelerometer has read
+                # one value near zero for accel_stuck_s: the accelerometer lies (zeros from a
+                # failed bus, a part reset to another range). The board flies on without it; the
+                # filter, whose velocity it carried, takes the barometer's rate (and at the next
+                # reading its altitude), and waits baro_settle_s as one that was far off the
+                # barometer (D16 rule 14)
+                _retire_accel(fc, now_ms)
+                valid = False
+                have &= HAVE_BARO
         if not flags & HEALTH_BARO_BAD:
             mode = MODE_BARO
     if cfg.has_accel and not flags & HEALTH_ACCEL_BAD and (valid or not fc.launched):
@@ -1165,18 +1194,34 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
     return have
 
 
+def _retire_accel(fc, now_ms):
+    """D16 rule 14 (see _arbitrate): the accelerometer retired; the filter takes the barometer's
+    window rate, and waits as one that was far off the barometer."""
+    arb = fc.arb
+    if arb.judge_due:
+        judge_late(arb)  # the newest window's rate
+    fc.health.retire_accel()
+    arb.stop()
+    fc.kf.vel_q4 = arb.baro_rate_mmps << 4
+    fc.off_baro_ms = now_ms
+
+
 def _accel_only_apogee(fc):
     """Accelerometer only (no barometer, or it is lost, frozen or excluded): apogee when the
     highest vertical velocity its error budget allows is at or below zero: the track's upper
     bound from launch, or, if the barometer had corrected the filter in coast for
     _ANCHORED_MS before it was lost, the filter's velocity before the fault was detected plus
     the track's change and margin since (``Arbitration.set_anchor``). Never early; late by the
-    margin / g. A clipped track bounds nothing from above: then the backup timer."""
+    margin / g. A clipped track bounds nothing from above: then the backup timer. Not while a
+    barometer left out but alive lies farther from the filter than a pressure transient can
+    (the rocket slow, no static-port error): the accelerometer does not decide alone against it
+    (D16 rule 14)."""
     arb = fc.arb
-    if not arb.upper_valid:
+    if not arb.upper_valid or fc.baro_excluded and arb.parted_beyond_lie(
+            fc.kf.alt_q4 >> 4, fc.now_ms, arb.transient_max_mm):
         return False
-    return arb.upper_mmps() <= 0 or (
-        fc._filter_anchored and arb.anchored_upper_mmps() <= 0)
+    return (arb.upper_mmps() <= 0 or fc._filter_anchored and arb.anchored_upper_mmps() <= 0) and (
+        fc.kf.vel_q4 <= 0)
 
 
 def _main_due_without_baro(fc, since_drogue_ms):

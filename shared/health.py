@@ -35,9 +35,11 @@ HEALTH_BARO_STUCK = const(1)
 HEALTH_BARO_LOST = const(2)
 HEALTH_ACCEL_STUCK = const(4)
 HEALTH_ACCEL_LOST = const(8)
+# the barometer contradicted it beyond any barometric error (``retire_accel``): for the flight
+HEALTH_ACCEL_IMPLAUSIBLE = const(16)
 HEALTH_BARO_BAD = const(3)  # HEALTH_BARO_STUCK | HEALTH_BARO_LOST
-HEALTH_ACCEL_BAD = const(12)  # HEALTH_ACCEL_STUCK | HEALTH_ACCEL_LOST
-HEALTH_NAMES = ("baro frozen", "baro lost", "accel frozen", "accel lost")
+HEALTH_ACCEL_BAD = const(28)  # HEALTH_ACCEL_STUCK | HEALTH_ACCEL_LOST | HEALTH_ACCEL_IMPLAUSIBLE
+HEALTH_NAMES = ("baro frozen", "baro lost", "accel frozen", "accel lost", "accel implausible")
 
 # The ends of the altitude table: shared.altitude clamps any pressure outside it to these.
 ALT_TOP_MM = pressure_to_alt_mm(P_MIN_Q4)
@@ -59,8 +61,6 @@ class SensorHealth:
     """The verdict on each sample's readings (see the module docstring)."""
 
     def __init__(self, config):
-        self.has_baro = config.has_baro
-        self.has_accel = config.has_accel
         self.accel_limit_mmps2 = config.accel_limit_mmps2  # 0: full scale unknown, no check
         # a held peak below this is not the full scale: half the configured range (0: unknown)
         self._early_clip_mmps2 = config.accel_limit_mmps2 >> 1
@@ -88,6 +88,7 @@ class SensorHealth:
         self.flags = 0
         self.changed = False  # flags changed at this sample
         self.baro_spikes = 0  # count of impossible barometric readings not used
+        self.baro_spike_ms = -_AGE_LIMIT_MS  # when the last one came
         self.baro_moved = False  # this sample's barometric reading differs from the previous one
         self._baro_last = 0
         self._baro_seen = False
@@ -102,6 +103,23 @@ class SensorHealth:
         # run it counts) and its held readings so far
         self._clip_run_ms = -1
         self._clip_held_n = 0
+        self.accel_retired = False  # see retire_accel
+
+    def accel_held_near_zero_ms(self, now_ms, near_mmps2):
+        """How long the accelerometer has read one value within ``near_mmps2`` of zero (0: it
+        reads another)."""
+        last = self._acc_last
+        if -near_mmps2 < last < near_mmps2:
+            return now_ms - self._acc_change_ms
+        return 0
+
+    def retire_accel(self):
+        """The barometer contradicted the accelerometer beyond any barometric error (docs/DESIGN.md
+        D16 rule 14): from the next sample on, the board flies as one without an accelerometer
+        (its readings unused, ``accel_ok`` False, HEALTH_ACCEL_IMPLAUSIBLE in ``flags``)."""
+        self.accel_ok = False
+        self._board_mask &= HAVE_BARO
+        self.accel_retired = True
 
 
 def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
@@ -114,7 +132,8 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
     function call half as much; docs/BENCHMARKS.md, "Per-sample cost")."""
     # the readings alone: a sensor the board does not have, a pressure outside the table, a
     # reading at the accelerometer's full scale
-    have &= health._board_mask
+    board = health._board_mask
+    have &= board
     if have & HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):
         have &= HAVE_ACCEL  # an out-of-range pressure is not a reading
         health.baro_out_of_range += 1
@@ -130,7 +149,7 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
     # are at least 0.1 s, so its test is skipped)
     flags = 0
     moved = False
-    has_baro = health.has_baro
+    has_baro = board & HAVE_BARO
     if has_baro:
         seen = health._baro_seen
         if have & HAVE_BARO:
@@ -145,6 +164,7 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
                         and step > health.baro_rate_max_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM):
                     have &= HAVE_ACCEL
                     health.baro_spikes += 1
+                    health.baro_spike_ms = now_ms
             if step or not seen:
                 health._baro_run_ms = now_ms
                 moved = True
@@ -157,7 +177,7 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
             flags = HEALTH_BARO_STUCK
             have &= HAVE_ACCEL
     health.baro_moved = moved
-    has_accel = health.has_accel
+    has_accel = board & HAVE_ACCEL
     if has_accel:
         seen = health._acc_seen
         run_now = False
@@ -228,9 +248,12 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
         ok = age < lost_ms
         if not ok:
             flags |= HEALTH_ACCEL_LOST
+    elif health.accel_retired:
+        flags |= HEALTH_ACCEL_IMPLAUSIBLE
     health.accel_ok = ok
     changed = flags != health.flags
     health.changed = changed
     if changed:
         health.flags = flags
     return have
+

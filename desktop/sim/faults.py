@@ -32,8 +32,10 @@ After the sensor (``apply_to_record``):
   least 2 g (the board is told that full scale, as docs/CONFIG.md asks).
 - ``accel_biased``: from launch on, the accelerometer reads an extra bias uniform in +-1 m/s^2 (a
   shock or thermal shift that the pad calibration cannot see).
+- ``accel_zeroed``: from an instant on, the accelerometer reads 0 (a failed bus returns zero bytes:
+  no specific force, a drag-free coast), for 0.2 to 5 s or, in half the draws, for good.
 
-The instant of the frozen and lost classes: a phase drawn with equal odds (boost, coast, the 6 s
+The instant of the frozen, lost and zeroed classes: a phase drawn with equal odds (boost, coast, the 6 s
 around apogee, descent to the main altitude; the accelerometer classes: the first three), then a
 time uniform in it.
 """
@@ -49,7 +51,7 @@ from desktop.sim.trajectory import G0, R_AIR, Trajectory, isa_temperature
 
 BARO_CLASSES = ("none", "transonic_up", "transonic_down", "transient_burnout", "transient_midcoast",
                 "transient_ejection", "baro_frozen", "baro_lost")
-ACCEL_CLASSES = ("accel_lost", "accel_clipped", "accel_biased", "accel_tilted")
+ACCEL_CLASSES = ("accel_lost", "accel_clipped", "accel_biased", "accel_tilted", "accel_zeroed")
 CLASSES = BARO_CLASSES + ACCEL_CLASSES
 
 TRANSONIC_MAX_FRACTION = 0.10  # of static pressure
@@ -65,6 +67,7 @@ BIAS_MAX_MPS2 = 1.0
 CLIP_FRACTION = (0.3, 0.9)  # of the flight's peak accelerometer reading
 CLIP_MIN_MPS2 = 2.0 * G0  # no part has a full scale below 2 g (it would clip on the pad)
 APOGEE_WINDOW_S = 3.0  # the "around apogee" phase: +- this
+ZEROED_S = (0.2, 5.0)  # how long a zeroed accelerometer reads 0 when it comes back
 
 
 class FaultError(ValueError):
@@ -80,7 +83,8 @@ class Fault:
 
     @property
     def on_board_record(self) -> bool:
-        return self.kind in ("baro_frozen", "baro_lost", "accel_lost", "accel_clipped", "accel_biased")
+        return self.kind in ("baro_frozen", "baro_lost", "accel_lost", "accel_clipped", "accel_biased",
+                             "accel_zeroed")
 
 
 def classes_for(max_mach: float, board: str) -> tuple[str, ...]:
@@ -141,6 +145,9 @@ def draw_fault(kind: str, rng: np.random.Generator, traj: Trajectory, end_s: flo
         p["phase"], p["start_s"] = _phase_instant(rng, traj, end_s, ("boost", "coast", "apogee", "descent"))
     elif kind == "accel_lost":
         p["phase"], p["start_s"] = _phase_instant(rng, traj, end_s, ("boost", "coast", "apogee"))
+    elif kind == "accel_zeroed":
+        p["phase"], p["start_s"] = _phase_instant(rng, traj, end_s, ("boost", "coast", "apogee"))
+        p["until_s"] = None if rng.random() < 0.5 else p["start_s"] + float(rng.uniform(*ZEROED_S))
     elif kind == "accel_clipped":
         p["fraction_of_peak"] = float(rng.uniform(*CLIP_FRACTION))
     elif kind == "accel_biased":
@@ -216,4 +223,9 @@ def apply_to_record(time_s: np.ndarray, pressure_pa: np.ndarray, accel_mps2: np.
         acc = np.clip(acc, -clip, clip)
     elif k == "accel_biased":
         acc[t >= 0.0] += p["bias_mps2"]
+    elif k == "accel_zeroed":
+        zeroed = t >= p["start_s"]
+        if p["until_s"] is not None:
+            zeroed &= t < p["until_s"]
+        acc[zeroed & np.isfinite(acc)] = 0.0
     return pres, acc, clip

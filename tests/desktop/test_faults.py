@@ -94,6 +94,11 @@ def test_record_faults_change_readings_from_their_start_instant():
     _, acc, _ = flt.apply_to_record(t, p, a, _fault("accel_biased", bias_mps2=-0.7))
     assert np.all(acc[t < 0] == a[t < 0])  # the pad calibration cannot see it
     assert acc[t >= 0] == pytest.approx(a[t >= 0] - 0.7)
+    _, acc, _ = flt.apply_to_record(t, p, a, _fault("accel_zeroed", phase="boost", start_s=0.5, until_s=2.0))
+    assert np.all(acc[(t >= 0.5) & (t < 2.0)] == 0.0)
+    assert np.array_equal(acc[(t < 0.5) | (t >= 2.0)], a[(t < 0.5) | (t >= 2.0)])
+    _, acc, _ = flt.apply_to_record(t, p, a, _fault("accel_zeroed", phase="coast", start_s=3.0, until_s=None))
+    assert np.all(acc[t >= 3.0] == 0.0) and np.array_equal(acc[t < 3.0], a[t < 3.0])
     peak = 200.0 * np.exp(-((t - 1.0) ** 2))
     _, acc, clip = flt.apply_to_record(t, p, peak, _fault("accel_clipped", fraction_of_peak=0.5))
     assert clip == pytest.approx(0.5 * peak.max()) and acc.max() == pytest.approx(clip)
@@ -115,6 +120,9 @@ def test_draws_stay_in_the_stated_ranges(supersonic):
                     assert 0.0 <= p["start_s"] - traj.apogee_time_s <= 0.5 and p["hold_until_s"] is None
             elif kind in ("baro_frozen", "baro_lost", "accel_lost"):
                 assert 0.0 <= p["start_s"] <= traj.end_time_s
+            elif kind == "accel_zeroed":
+                assert 0.0 <= p["start_s"] <= traj.end_time_s
+                assert p["until_s"] is None or 0.2 <= p["until_s"] - p["start_s"] <= 5.0
             elif kind == "accel_biased":
                 assert abs(p["bias_mps2"]) <= 1.0
             elif kind == "accel_tilted":

@@ -20,6 +20,7 @@ from shared.config import Config, load_config
 from shared.detector import HAVE_BARO, HAVE_BOTH
 from shared.flight import EV_HEALTH, EV_LAUNCH, EV_MODE, MODE_ACCEL, MODE_BARO
 from shared.health import (
+    HEALTH_ACCEL_IMPLAUSIBLE,
     HEALTH_ACCEL_STUCK,
     HEALTH_BARO_LOST,
     HEALTH_BARO_STUCK,
@@ -526,6 +527,91 @@ def test_a_barometer_glitching_faster_than_any_rocket_is_not_used(rocket, every,
     out = run(dataclasses.replace(fl, alt_mm=alt_mm), backup_drogue_s=round(fl.apogee_s + 3))
     assert out.fc.health.baro_spikes > 0
     assert abs(out.early_s) <= 0.1, "drogue %.2f s before apogee" % out.early_s
+
+
+@pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH_ROCKET, MACH14_ROCKET],
+                         ids=["mach1.0", "mach2.4", "mach1.65"])
+def test_an_accelerometer_reading_zeros_through_the_boost_is_retired(rocket):
+    # the accelerometer's bus fails 0.3 s into the boost and reads 0 (zero bytes) for 2.7 s, then
+    # recovers. Zero specific force is a drag-free coast: the filter ends the boost, and the healthy
+    # barometer, climbing at 200 to 700 m/s, disagrees with the accelerometer's bounds and is left
+    # out. Before D16 rule 14 the accelerometer then decided alone: the drogue at 159 m/s 12.5 s
+    # early (Mach 1.0), 21.2 s early (Mach 1.65), or, never proven (the two climbs never agreed),
+    # nothing at all (Mach 2.4). The barometer's altitude parts from the accelerometer-carried
+    # filter by more than any barometric error can (baro_lie_max_m): the accelerometer is retired
+    # for the flight and the barometer decides, at apogee; until then the accelerometer-only
+    # apogee waits while the barometer climbs (the Mach 1.0 flight reaches it first)
+    fl = flight(rocket)
+    accel = fl.accel_mmps2.copy()
+    accel[(fl.time_s >= 0.3) & (fl.time_s < 3.0)] = 0
+    import dataclasses
+
+    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3))
+    assert any(h & HEALTH_ACCEL_IMPLAUSIBLE for _, _, _, h in out.events)
+    assert abs(out.early_s) <= 0.1, "drogue %.2f s before apogee" % out.early_s
+
+
+@pytest.mark.parametrize("rocket", [MACH_ROCKET, MACH14_ROCKET], ids=["mach2.4", "mach1.65"])
+def test_an_accelerometer_reading_an_eighth_of_the_truth_is_retired(rocket):
+    # a 16 g part reset by a brown-out to another range 1 s before launch, read with the
+    # configured scale: 1/8 of the specific force (the pad's orientation check, over 2 s, already
+    # passed). The track reads the boost far too slow, the barometer is left out, and the two
+    # climbs never agree: no drogue at all before D16 rule 14. The barometer parts from the
+    # accelerometer-carried filter by more than any barometric error: retired, drogue at apogee
+    fl = flight(rocket)
+    import dataclasses
+
+    accel = fl.accel_mmps2.copy()
+    accel[fl.time_s >= -1.0] //= 8
+    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3),
+              accel_range_g=16)
+    assert any(h & HEALTH_ACCEL_IMPLAUSIBLE for _, _, _, h in out.events)
+    assert out.early_s is not None and abs(out.early_s) <= 0.1
+
+
+@pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH14_ROCKET], ids=["mach1.0", "mach1.65"])
+def test_an_accelerometer_glitching_to_full_scale_in_the_boost_does_not_decide_alone(rocket):
+    # every third reading at -16 g from 0.3 s to 3 s: the track reads the boost hundreds of m/s
+    # slow, and its accelerometer-only apogee fired 8.9 and 10.1 s early. The barometer, left out,
+    # lies far more than a pressure transient can from the filter the accelerometer carries, and
+    # holds it (D16 rule 14); the backup timer fires (3.5 s late)
+    fl = flight(rocket)
+    accel = fl.accel_mmps2.copy()
+    accel[np.flatnonzero((fl.time_s >= 0.3) & (fl.time_s < 3.0))[::3]] = -16 * 9807
+    import dataclasses
+
+    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3))
+    assert out.drogue_s is not None
+    assert out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
+
+
+@pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH_ROCKET, MACH14_ROCKET],
+                         ids=["mach1.0", "mach2.4", "mach1.65"])
+def test_an_accelerometer_glitching_to_full_scale_in_coast_does_not_decide_alone(rocket):
+    # from 3 s on, every third reading is the part's negative full scale (-16 g: a bus error),
+    # through apogee. The filter's gate leaves the glitches out and it tracks the barometer, but
+    # the track integrates them, reads hundreds of m/s too slow, and the barometer, disagreeing,
+    # is left out: the accelerometer-only apogee (its upper bound at or below zero) fired 5.4 to
+    # 14.6 s early. It also needs the filter's own velocity at or below zero (D16 rule 14)
+    fl = flight(rocket)
+    accel = fl.accel_mmps2.copy()
+    accel[np.flatnonzero(fl.time_s >= 3.0)[::3]] = -16 * 9807
+    import dataclasses
+
+    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3))
+    assert -1.0 <= out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
+
+
+@pytest.mark.parametrize("rocket", [MACH_ROCKET, MACH14_ROCKET], ids=["mach2.4", "mach1.65"])
+@pytest.mark.parametrize("c", [0.1, -0.1])
+def test_a_static_port_error_never_retires_a_healthy_accelerometer(rocket, c):
+    # the largest barometric lie of the fault model (10 % of pressure through Mach, sigma 0.3),
+    # with the accelerometer at the edge of its budget (30 degrees, 1 m/s^2): the barometer parts
+    # from the accelerometer-carried filter by at most 0.7 of baro_lie_max_m plus the
+    # accelerometer's error since (measured): the accelerometer is never retired
+    fl = flight(rocket, Faults(mach_c=c, mach_sigma=0.3, accel_tilt_deg=30, accel_bias_mps2=-c * 10))
+    out = drogue_near_apogee(fl)
+    assert not any(h & HEALTH_ACCEL_IMPLAUSIBLE for _, _, _, h in out.events)
 
 
 def test_accelerometer_frozen_flags_health():

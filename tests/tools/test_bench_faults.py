@@ -265,6 +265,28 @@ def test_accelerometer_faults_with_a_healthy_barometer_within_0_3_s(subsonic, ki
     assert_within(subsonic, drogue, 0.3)
 
 
+@pytest.mark.parametrize("start_s, until_s", [(0.5, 3.0), (0.5, None), (3.5, None)])
+def test_an_accelerometer_reading_zeros_is_found_out_by_the_barometer(supersonic, start_s, until_s):
+    """A failed bus reads zero bytes: 0 m/s^2 of specific force, a drag-free coast, from 0.5 s into
+    the Mach 1.7 boost (for 2.5 s, or for good) or from 1 s after burnout. The filter and the
+    accelerometer's bounds believe it, and the healthy barometer, disagreeing, is left out; the
+    barometer then parts from the accelerometer-carried filter by more than any barometric error,
+    or climbs fast while the accelerometer holds zero, and the accelerometer is retired for the
+    flight (docs/DESIGN.md D16 rule 14). Before, the first fired 17.6 s early and the last 3.1 s
+    late, on the backup timer."""
+    drogue, _ = run(supersonic, fault("accel_zeroed", phase="boost", start_s=start_s, until_s=until_s))
+    assert_within(supersonic, drogue, 0.1)
+
+
+def test_a_model_rocket_whose_accelerometer_reads_zeros_is_proven_by_the_barometer(model_rocket):
+    """The same from 0.5 s into a C6's boost, for good: a 430 m flight never parts 1.2 km from
+    anything, but the accelerometer holds zero while the barometer climbs faster than 50 m/s, which
+    no drag allows, and it is retired (D16 rule 14): the barometer alone proves the flight. Before,
+    the two climbs never agreed, the flight was never proven, and nothing fired at all."""
+    drogue, _ = run(model_rocket, fault("accel_zeroed", phase="boost", start_s=0.5, until_s=None))
+    assert_within(model_rocket, drogue, 0.1)
+
+
 @pytest.mark.parametrize("fraction_of_peak", [0.3, 0.5])
 def test_a_clipped_boost_waits_for_the_filter_to_settle(supersonic, fraction_of_peak):
     """The accelerometer clips at 30 % of a Mach 1.7 boost's peak: its track bounds the velocity
