@@ -55,6 +55,13 @@ _ONE_G_MMPS2 = const(9807)
 # or more) changes within two or three.
 _CLIP_HOLD_MS = const(50)
 _CLIP_HOLD_N = const(2)  # held readings after the one that set the run: three equal readings
+# Impossible barometric readings in a row for _ERRATIC_RUN_MS are a broken part (the real logs'
+# longest run, an ejection charge's blast at apogee, lasts 65 ms: firm-jackpot-4, 7 readings), and
+# none of its readings is used for _ERRATIC_HOLD_MS after it: at random kilometres a few percent
+# pass the spike test by chance, enough for the filter to take a few (a barometer reading +-2 km
+# of noise fired drogues 7 to 15 s early)
+_ERRATIC_RUN_MS = const(200)
+_ERRATIC_HOLD_MS = const(2000)
 
 
 class SensorHealth:
@@ -89,6 +96,8 @@ class SensorHealth:
         self.changed = False  # flags changed at this sample
         self.baro_spikes = 0  # count of impossible barometric readings not used
         self.baro_spike_ms = -_AGE_LIMIT_MS  # when the last one came
+        self._spike_run_ms = 0  # when the current run of impossible readings began
+        self._baro_erratic_ms = -_AGE_LIMIT_MS  # no barometric reading is used before this
         self.baro_moved = False  # this sample's barometric reading differs from the previous one
         self._baro_last = 0
         self._baro_seen = False
@@ -164,6 +173,13 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
                         and step > health.baro_rate_max_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM):
                     have &= HAVE_ACCEL
                     health.baro_spikes += 1
+                    # impossible readings for _ERRATIC_RUN_MS in a row are a broken part, and one
+                    # of its readings that passes by chance is no measurement either: none is
+                    # used until it has read nothing impossible for _ERRATIC_HOLD_MS
+                    if health._baro_fresh_ms != health.baro_spike_ms:  # (the reading before was good)
+                        health._spike_run_ms = now_ms
+                    elif now_ms - health._spike_run_ms >= _ERRATIC_RUN_MS:
+                        health._baro_erratic_ms = now_ms + _ERRATIC_HOLD_MS
                     health.baro_spike_ms = now_ms
             if step or not seen:
                 health._baro_run_ms = now_ms
@@ -172,6 +188,8 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
             health._baro_fresh_ms = now_ms
             if not seen:
                 health._baro_seen = seen = True
+            if now_ms < health._baro_erratic_ms:
+                have &= HAVE_ACCEL
         if (not moved and in_flight and seen
                 and now_ms - health._baro_run_ms >= health.baro_stuck_ms):
             flags = HEALTH_BARO_STUCK
