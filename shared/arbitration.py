@@ -219,7 +219,6 @@ class Arbitration:
         return (self.anchor_filter_mmps + self.vel_mmps - self.anchor_track_mmps
                 + self.margin_mmps - self.anchor_margin_mmps + self.upper_extra_mmps)
 
-
     def parted_beyond_lie(self, filter_alt_mm, now_ms, lie_mm):
         """The newest slot's barometric altitude lies farther from the filter (carried on by the
         accelerometer since the barometer was left out) than ``lie_mm`` (a barometric error:
@@ -241,6 +240,7 @@ class Arbitration:
         if apart < 0:
             apart = -apart
         return apart > lie_mm + grown_mps * dt_ms
+
 
 # The per-sample updates: module-level functions taking the arbitration (on MicroPython a method
 # call costs about twice a function call; docs/BENCHMARKS.md, "Per-sample cost").

@@ -1129,11 +1129,11 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
                 # the ballistic test of a coast without the accelerometer (shared/ballistic.py;
                 # its noise learnt on a barometer-only board's pad)
                 ballistic.check(arb.ballistic, arb, state == PAD, state == COAST, now_ms)
-            health = fc.health
-            if fc.baro_excluded and now_ms - health.baro_spike_ms >= _BARO_CLEAN_MS and (
+            if fc.baro_excluded and now_ms - fc.health.baro_spike_ms >= _BARO_CLEAN_MS and (
                     arb.parted_beyond_lie(kf.alt_q4 >> 4, now_ms, arb.lie_max_mm)
                     or arb.baro_rate_mmps > _HELD_FAST_MMPS
-                    and health.accel_held_near_zero_ms(now_ms, _HELD_NEAR_ZERO_MMPS2) >= cfg.accel_stuck_ms):
+                    and fc.health.accel_held_near_zero_ms(now_ms, _HELD_NEAR_ZERO_MMPS2)
+                    >= cfg.accel_stuck_ms):
                 # left out, alive (no impossible reading for _BARO_CLEAN_MS, a reading in every
                 # slot), and farther from the accelerometer-carried filter than any barometric
                 # error, or climbing faster than _HELD_FAST_MMPS while the accelerometer has read
@@ -1217,11 +1217,13 @@ def _accel_only_apogee(fc):
     (the rocket slow, no static-port error): the accelerometer does not decide alone against it
     (D16 rule 14)."""
     arb = fc.arb
-    if not arb.upper_valid or fc.baro_excluded and arb.parted_beyond_lie(
-            fc.kf.alt_q4 >> 4, fc.now_ms, arb.transient_max_mm):
+    if not arb.upper_valid:
         return False
-    return (arb.upper_mmps() <= 0 or fc._filter_anchored and arb.anchored_upper_mmps() <= 0) and (
-        fc.kf.vel_q4 <= 0)
+    # (the barometer's test last: the bounds hold the apogee off through most of the mode)
+    return ((arb.upper_mmps() <= 0 or fc._filter_anchored and arb.anchored_upper_mmps() <= 0)
+            and fc.kf.vel_q4 <= 0
+            and not (fc.baro_excluded and arb.parted_beyond_lie(
+                fc.kf.alt_q4 >> 4, fc.now_ms, arb.transient_max_mm)))
 
 
 def _main_due_without_baro(fc, since_drogue_ms):

@@ -274,4 +274,3 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
     if changed:
         health.flags = flags
     return have
-
