@@ -1174,14 +1174,21 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
             fc._reanchor = True
             if mode & MODE_ACCEL and reads_slow(arb, cfg.baro_back_slow_mmps):
                 fc.baro_back_ms = now_ms
-            if state == COAST and not arb.upper_valid:
-                # after a clipped boost, taken back climbing faster than the filter's velocity by
-                # more than baro_readmit_mps while that velocity is below it (apogee near, or
-                # past): the filter's velocity is not the motion (the clip left it wrong, and the
-                # anchor with it; taken back after 10 s, it crossed zero at once, 4.4 s before
-                # apogee at 44 m/s), and it takes the barometer's rate, erring late if the
-                # barometer lies fast (D16 rule 13). An unclipped track carried the velocity
-                # on within its bounds, and the barometer came back agreeing with them
+            if state == COAST and (not arb.upper_valid or arb.parted_beyond_lie(
+                    fc.kf.alt_q4 >> 4, arb.anchor_ms, arb.transient_max_mm)):
+                # taken back climbing faster than the filter's velocity by more than
+                # baro_readmit_mps while that velocity is below it (apogee near, or past): the
+                # filter's velocity is not the motion, and it takes the barometer's rate, erring
+                # late if the barometer lies fast (D16 rule 13). After a clipped boost (the clip
+                # left the filter wrong, and the anchor with it: taken back after 10 s, it crossed
+                # zero at once, 4.4 s before apogee at 44 m/s); with an unclipped track, when the
+                # barometer comes back farther from the accelerometer-carried filter than a
+                # transient can lie (no budget for the filter's own drift: counted as at the
+                # anchor; a false call only errs late). Zeros read for half a second of the boost
+                # left filter and anchor 100 to 200 m/s slow; the barometer, taken back 2 to 4 km
+                # above the filter, climbing at 90 to 150 m/s against a descending filter, fired
+                # the drogue at once, 4.7 to 14.6 s early. A transient's decay comes back within
+                # 50 m, reading fast: its rate held the drogue up to 3 s late
                 kf = fc.kf
                 vel_mmps = kf.vel_q4 >> 4
                 fast = cfg.baro_readmit_mmps

@@ -65,8 +65,13 @@ MUTANTS = [
      "tests/tools/test_bench_faults.py"
      "::test_a_barometer_taken_back_climbing_faster_than_the_filter_gives_it_its_rate"),
     ("baro-back-fast-only-after-clip", FLIGHT,
-     "            if state == COAST and not arb.upper_valid:\n",
-     "            if state == COAST:\n",
+     "            if state == COAST and (not arb.upper_valid or arb.parted_beyond_lie(\n",
+     "            if state == COAST and (not arb.upper_valid or False and arb.parted_beyond_lie(\n",
+     "tests/shared/test_arbitration.py"
+     "::test_an_accelerometer_that_read_zeros_for_half_a_second_of_the_boost_is_not_believed"),
+    ("baro-back-fast-even-near", FLIGHT,
+     "            if state == COAST and (not arb.upper_valid or arb.parted_beyond_lie(\n",
+     "            if state == COAST and (True or arb.parted_beyond_lie(\n",
      "tests/desktop/test_replay_altos.py::test_anomalous_flight_within_its_window"),
     ("reanchor-distance-afresh", FLIGHT,
      "            self.resid_sq_avg_q4 = 0\n",

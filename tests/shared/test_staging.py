@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import shared.flight as flight_module
-from shared.flight import EV_BURNOUT, EV_IGNITION
+from shared.flight import EV_BURNOUT, EV_IGNITION, EV_MODE, MODE_ACCEL
 from tests.support.fault_flight import (
     AIR_START_ROCKET,
     SUBSONIC_ROCKET,
@@ -71,11 +71,17 @@ def test_a_motor_lit_in_coast_never_fires_the_drogue_early(rocket, gap_s, sensor
 
 def test_the_ignition_rule_is_needed(monkeypatch):
     # without it (no boost counted after burnout) the thrust is left out as "not drag": the
-    # filter, held at or below -0.5 g in coast, loses the climb and declares apogee with the
-    # second motor burning
+    # filter, held at or below -0.5 g in coast, loses the climb, and the barometer, climbing past
+    # the accelerometer's bounds, is left out and taken back again and again through the burn.
+    # (Until D16 rule 13 gave the filter the barometer's rate when it came back faster, the drogue
+    # then fired more than 10 s early, with the second motor burning; now it comes at apogee either
+    # way, but only the ignition rule keeps the barometer in use)
     fl = flight(AIR_START_ROCKET, 9.0)  # lit at 86 m/s, 8 s before the first motor's apogee
     backup = round(fl.apogee_s + 3, 1)
-    assert abs(run(fl, backup_drogue_s=backup).early_s) < 0.05
+    out = run(fl, backup_drogue_s=backup)
+    assert abs(out.early_s) < 0.05
+    assert [e for _, e, _, _ in out.events if e & EV_IGNITION]
+    assert not [e for _, e, _, _ in out.events if e & EV_MODE]
     update_boost = flight_module._update_boost
 
     def boost_before_burnout_only(fc, *args):
@@ -86,7 +92,9 @@ def test_the_ignition_rule_is_needed(monkeypatch):
     # (the ballistic floor set when the barometer is left out, D16 rule 10, holds this flight too:
     # a floor from before the ignition stays under the velocity; it is off here, so that the test
     # speaks for the ignition rule)
-    assert run(fl, backup_drogue_s=backup, baro_ballistic_mps=0).early_s > 10
+    out = run(fl, backup_drogue_s=backup, baro_ballistic_mps=0)
+    assert len([m for _, e, m, _ in out.events if e & EV_MODE and m == MODE_ACCEL]) >= 2
+    assert abs(out.early_s) < 0.05
 
 
 def _separation(rocket, gap_s, amp_m):
