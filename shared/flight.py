@@ -404,6 +404,19 @@ class FlightComputer:
             self.errors = (self.errors & ~PAD_ERRORS) | pad.errors
             self.ground_alt_mm = pad.ground_alt_mm
             self.one_g_mmps2 = pad.one_g_mmps2
+            if (-_HELD_NEAR_ZERO_MMPS2 < accel_mmps2 < _HELD_NEAR_ZERO_MMPS2 and have & HAVE_ACCEL
+                    and pad.upright and health.accel_held_near_zero_ms(
+                        now_ms, _HELD_NEAR_ZERO_MMPS2) >= cfg.accel_stuck_ms):
+                # D16 rule 14 on the pad: upright (its orientation checked) an accelerometer reads
+                # 1 g; one value near zero held accel_stuck_s is a failed bus (zero bytes), or a
+                # free fall of 1.2 m that no pad allows. Retired for the flight: the board
+                # launches and proves its flight on the barometer alone, and the pad no longer
+                # judges its orientation by it (its zeros in the pad's averages would refuse the
+                # launch). A board never read upright (a part reading zeros from power-on, a
+                # board lying down) keeps its launch refused
+                health.retire_accel()
+                self.arb.stop()
+                pad.has_accel = False
         acc_kin = accel_mmps2 - self.one_g_mmps2
         have = _arbitrate(self, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped)
         mode = self.mode
@@ -847,7 +860,8 @@ def _check_proof(fc, cfg, dt_ms):
     Both sensors: the barometer's own reading holds proof_climb_m for a second, and the
     accelerometer's account of the boost agrees: its integrated speed reached proof_speed_mps
     and its integrated height proof_climb_m (a shove or a knock on the rail gives a few m/s; a
-    pressure offset, a gust or a hand on the port moves no accelerometer). Barometer only (by
+    pressure offset, a gust or a hand on the port moves no accelerometer); or each climbed
+    proof_baro_climb_m without agreeing by how much. Barometer only (by
     configuration, the accelerometer lost before proof, or clipped short of proof_speed_mps):
     proof_baro_climb_m held, above any pad pressure disturbance, at proof_speed_mps.
     Accelerometer only (or the barometer lost):
@@ -876,6 +890,16 @@ def _check_proof(fc, cfg, dt_ms):
             climb_mm -= fc.proof_ref_baro_mm
             held = climb_mm >= line_mm and _climbs_agree(
                 climb_mm, fc.acc_h_mm - fc.proof_ref_acc_mm, clipped)
+        if not held:
+            # or each sensor climbed proof_baro_climb_m, the barometer-only board's line (above
+            # any pad pressure disturbance; a knock or a shove that the board survives at rest
+            # integrates to metres), at proof_speed_mps, without agreeing by how much: an
+            # accelerometer that missed part of the boost (a bus that read zeros for a second,
+            # then recovered) integrates a height that never again agrees, and left a flight the
+            # barometer saw climb a kilometre unproven, with nothing fired
+            held = (fc.baro_agl_mm >= cfg.proof_baro_climb_mm
+                    and fc.acc_h_mm >= cfg.proof_baro_climb_mm
+                    and fc.max_vel_mmps >= cfg.proof_speed_mmps)
     if held:
         fc.climb_ms += dt_ms
     elif fc.climb_ms > dt_ms:

@@ -68,6 +68,7 @@ class PadCalibration:
         self.one_g_mmps2 = G_MMPS2
         self.cal_samples = 0  # quiet pad samples that went into the current reference
         self.errors = 0  # PAD_ERRORS bits
+        self.upright = False  # the latest orientation check passed (none yet: False)
         self._jumps = 0
         self._last_jump_ms = 0
         self._ref_mm = 0  # the altitude the block sums are offsets from
@@ -215,8 +216,10 @@ def _check_orientation(pad, one_g):
         return
     if _ONE_G_MIN <= one_g <= _ONE_G_MAX:
         pad.errors &= ~ERR_ORIENTATION
+        pad.upright = True
     else:
         pad.errors |= ERR_ORIENTATION
+        pad.upright = False
 
 
 def _apply(pad, alt_sum, alt_n, acc_sum, acc_n):

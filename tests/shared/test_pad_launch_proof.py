@@ -26,6 +26,7 @@ from shared.flight import (
     PAD,
     FlightComputer,
 )
+from shared.health import HEALTH_ACCEL_IMPLAUSIBLE
 from tools.synthetic_flight import make_flight
 
 G = 9807
@@ -439,6 +440,71 @@ def test_a_barometer_erratic_at_ignition_does_not_cancel_the_flight(spike_mm, ev
     fc, events, _ = run(dts, alts, accs, HAVE_BOTH)
     assert fc.errors & 8  # it was erratic (and the flight log says so)
     assert abs(first(events, EV_LAUNCH) - ignition) <= 20
+    assert abs(first(events, EV_DROGUE) - apogee) <= 30
+
+
+@pytest.mark.parametrize("boost_mmps2, burn_ms, zeros_s", [
+    (100000, 2000, None), (100000, 2000, 1.0), (6900, 6000, None)], ids=["10g", "10g-for-1s", "slow-0.7g"])
+def test_zeros_from_ignition_leave_the_barometer_to_launch_and_prove(boost_mmps2, burn_ms, zeros_s):
+    # the accelerometer's bus fails at ignition and reads 0 (zero bytes; for good, or for 1 s):
+    # no boost, and the launch by height waited for an accelerometer that never pushed, so the
+    # board stayed on the pad through the whole flight and fired nothing (14 of the fault
+    # benchmark's 1,200 accel_zeroed runs with both sensors). Upright on the pad an accelerometer
+    # reads 1 g: one value near zero held accel_stuck_s is retired for the flight (D16 rule 14),
+    # and the barometer alone launches and proves it. The slow boost launches by height 2.4 s
+    # after ignition: by then the pad's orientation check has averaged the zeros, and would
+    # refuse the launch if it still judged the retired part
+    dts, alts, accs, truth, apogee = flight(boost_mmps2=boost_mmps2, burn_ms=burn_ms, after_apogee_s=20)
+    ignition = 200  # make_flight's 2 s of pad at 100 Hz
+    accs = accs.copy()
+    accs[ignition + 3:None if zeros_s is None else ignition + 3 + int(zeros_s * 100)] = 0
+    fc, events, _ = run(dts, alts, accs, HAVE_BOTH)
+    assert fc.health.flags & HEALTH_ACCEL_IMPLAUSIBLE
+    assert first(events, EV_LAUNCH) is not None
+    assert abs(first(events, EV_DROGUE) - apogee) <= 30
+
+
+def test_an_accelerometer_reading_zeros_on_the_pad_fires_nothing_on_a_pressure_disturbance():
+    # the bus fails on the pad, the board upright: the accelerometer is retired and the board
+    # waits for a launch as a barometer-only one, whose proof (100 m held 1 s) no pad pressure
+    # disturbance passes: 60 m offsets of either sign, as steps and as ramps over 2 s, held
+    for offset_mm in (60000, -60000):
+        for rise_s in (0, 2.0):
+            dts, alts, accs = pad(30, rate=100)
+            accs[300:] = 0
+            alts = alts + offset_profile(len(dts), 100, 1000, offset_mm, rise_s, None).astype(np.int64)
+            fc, events, pyro = run(dts, alts, accs, HAVE_BOTH, **ALL_ON)
+            assert fc.health.flags & HEALTH_ACCEL_IMPLAUSIBLE
+            assert not pyro and not any(e & FIRING for _, e in events)
+
+
+def test_an_accelerometer_reading_zeros_from_power_on_refuses_the_launch():
+    # a part that reads 0 from the first sample was never seen upright: the orientation check
+    # refuses the launch (as for a board lying down), and the board fires nothing, even carried
+    # through a climb of a flight's shape. Retired before that check (within accel_stuck_s of
+    # power-on), it would have launched and fired on the barometer alone
+    dts, alts, accs, truth, apogee = flight(after_apogee_s=20)
+    fc, events, pyro = run(dts, alts, np.zeros_like(accs), HAVE_BOTH, **ALL_ON)
+    assert fc.errors & 1  # ERR_ORIENTATION
+    assert first(events, EV_LAUNCH) is None
+    assert not pyro and not any(e & FIRING for _, e in events)
+
+
+@pytest.mark.parametrize("start_s, zeros_s", [(0.02, 0.5), (0.5, 0.9), (1.2, 0.6)])
+def test_a_boost_the_accelerometer_partly_missed_is_proven_by_the_barometer(start_s, zeros_s):
+    # the accelerometer's bus reads zeros for half a second to a second of a 2 s, 10 g boost,
+    # then recovers: its integrated speed and height miss that thrust (50 to 90 m/s), and its
+    # height never again agrees with the barometer's (10 m + 25 %), so the flight, climbing to
+    # 2 km, was never proven and nothing fired (6 of the fault benchmark's 1,200 accel_zeroed runs
+    # with both sensors). The barometer-only board's own account (100 m held 1 s at 15 m/s), with
+    # the accelerometer's boost, proves it: the drogue at apogee
+    dts, alts, accs, truth, apogee = flight(after_apogee_s=20)
+    ignition = 200  # make_flight's 2 s of pad at 100 Hz
+    accs = accs.copy()
+    start = ignition + int(start_s * 100)
+    accs[start:start + int(zeros_s * 100)] = 0
+    fc, events, _ = run(dts, alts, accs, HAVE_BOTH)
+    assert fc.flight_proven
     assert abs(first(events, EV_DROGUE) - apogee) <= 30
 
 
