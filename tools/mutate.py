@@ -326,7 +326,7 @@ MUTANTS = [
      PAD_TESTS + "::test_erratic_barometer_refuses_a_launch_by_height"),
     ("pad-orientation", PADCAL,
      "        pad.errors |= ERR_ORIENTATION",
-     "            pass",
+     "        pass",
      FLIGHT_TESTS + "::test_board_not_upright_or_wrong_range_refuses_launch"),
     ("range-check", HEALTH,
      "if have & HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):",
