@@ -1,6 +1,7 @@
 """tools/mutate.py's mutants stay applicable: each rule's text is found exactly once in its file
 (an edit of the code that moves a rule would otherwise stop the mutation run at that mutant),
-and each names a test that exists."""
+each mutated file still compiles (a mutant that breaks the indentation stops the run too), and
+each names a test that exists."""
 
 from pathlib import Path
 
@@ -20,3 +21,14 @@ def test_every_mutant_names_an_existing_test():
         path, _, func = test.partition("::")  # a test, or a whole test file
         source = (ROOT / path).read_text()
         assert not func or f"def {func.split('[')[0]}(" in source, name
+
+
+def test_every_mutant_compiles():
+    broken = []
+    for name, rel, original, mutated, _test in mutate.MUTANTS:
+        source = (ROOT / rel).read_text().replace(original, mutated, 1)
+        try:
+            compile(source, rel, "exec")
+        except SyntaxError:
+            broken.append(name)
+    assert broken == []
