@@ -219,12 +219,12 @@ class Arbitration:
         return (self.anchor_filter_mmps + self.vel_mmps - self.anchor_track_mmps
                 + self.margin_mmps - self.anchor_margin_mmps + self.upper_extra_mmps)
 
-    def parted_beyond_lie(self, filter_alt_mm, now_ms, lie_mm):
+    def parted_beyond_lie(self, filter_alt_mm, now_ms, lie_mm, with_margin):
         """The newest slot's barometric altitude lies farther from the filter (carried on by the
         accelerometer since the barometer was left out) than ``lie_mm`` (a barometric error:
         ``lie_max_mm``, or ``transient_max_mm`` when the rocket is slow) plus the filter's own
-        error since the anchor: its velocity then known to ``baro_readmit_mps``, and the track's
-        margin grown since (both x the time since; the margin grows, so this bounds its
+        error since the anchor: its velocity then known to ``baro_readmit_mps`` and, ``with_margin``,
+        the track's margin grown since (both x the time since; the margin grows, so this bounds its
         integral). A barometric error is bounded in altitude; an accelerometer's grows with the
         square of time. False while a slot of the newest window holds no reading. (A method: it
         runs on the rare samples that leave the barometer out.)"""
@@ -233,9 +233,11 @@ class Arbitration:
         dt_ms = now_ms - self.anchor_ms
         if dt_ms > _PART_DT_LIMIT_MS:
             dt_ms = _PART_DT_LIMIT_MS
-        grown_mps = (self.readmit_tol_mmps + self.margin_mmps - self.anchor_margin_mmps) // 1000
-        if grown_mps > _PART_VEL_LIMIT_MPS:
-            grown_mps = _PART_VEL_LIMIT_MPS
+        grown_mps = self.readmit_tol_mmps // 1000
+        if with_margin:
+            grown_mps += (self.margin_mmps - self.anchor_margin_mmps) // 1000
+            if grown_mps > _PART_VEL_LIMIT_MPS:
+                grown_mps = _PART_VEL_LIMIT_MPS
         apart = self._alt[self._head] - filter_alt_mm
         if apart < 0:
             apart = -apart

@@ -107,7 +107,8 @@ SCHEMA = {
     "baro_transient_max_m": (300, 50, 5000, "m",
         "the largest pressure transient (airbrakes, an ejection): at an accelerometer-only apogee the "
         "rocket is slow (no static-port error), and a barometer left out that lies farther than this "
-        "plus the accelerometer's own error since from the accelerometer-carried filter holds it"),
+        "(plus baro_readmit_mps x the time since) from the accelerometer-carried filter holds it; "
+        "taken back that far, climbing faster than the filter, it gives the filter its rate"),
     "baro_back_slow_mps": (5, 0, 100, "m/s",
         "a barometer taken back reading this much (plus 3 x its learnt noise) slower than the "
         "accelerometer's velocity since the fault does not decide apogee for baro_settle_s"),

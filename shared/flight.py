@@ -1154,7 +1154,7 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
                 # its noise learnt on a barometer-only board's pad)
                 ballistic.check(arb.ballistic, arb, state == PAD, state == COAST, now_ms)
             if fc.baro_excluded and now_ms - fc.health.baro_spike_ms >= _BARO_CLEAN_MS and (
-                    arb.parted_beyond_lie(kf.alt_q4 >> 4, now_ms, arb.lie_max_mm)
+                    arb.parted_beyond_lie(kf.alt_q4 >> 4, now_ms, arb.lie_max_mm, True)
                     or arb.baro_rate_mmps > _HELD_FAST_MMPS
                     and fc.health.accel_held_near_zero_ms(now_ms, _HELD_NEAR_ZERO_MMPS2)
                     >= cfg.accel_stuck_ms):
@@ -1199,7 +1199,7 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
             if mode & MODE_ACCEL and reads_slow(arb, cfg.baro_back_slow_mmps):
                 fc.baro_back_ms = now_ms
             if state == COAST and (not arb.upper_valid or arb.parted_beyond_lie(
-                    fc.kf.alt_q4 >> 4, arb.anchor_ms, arb.transient_max_mm)):
+                    fc.kf.alt_q4 >> 4, arb.anchor_ms, arb.transient_max_mm, False)):
                 # taken back climbing faster than the filter's velocity by more than
                 # baro_readmit_mps while that velocity is below it (apogee near, or past): the
                 # filter's velocity is not the motion, and it takes the barometer's rate, erring
@@ -1254,7 +1254,7 @@ def _accel_only_apogee(fc):
     return ((arb.upper_mmps() <= 0 or fc._filter_anchored and arb.anchored_upper_mmps() <= 0)
             and fc.kf.vel_q4 <= 0
             and not (fc.baro_excluded and arb.parted_beyond_lie(
-                fc.kf.alt_q4 >> 4, fc.now_ms, arb.transient_max_mm)))
+                fc.kf.alt_q4 >> 4, fc.now_ms, arb.transient_max_mm, False)))
 
 
 def _main_due_without_baro(fc, since_drogue_ms):

@@ -574,6 +574,24 @@ def test_an_accelerometer_that_read_zeros_for_half_a_second_of_the_boost_is_not_
     assert abs(out.early_s) <= 0.1, "drogue %.2f s before apogee" % out.early_s
 
 
+def test_an_accelerometer_reading_twice_the_truth_in_coast_does_not_decide_alone():
+    # from 1 s after the Mach 2.4 flight's burnout the accelerometer reads twice the specific
+    # force (a part reset in flight to half its range, read with the configured scale): the
+    # track and its bounds run hundreds of m/s low (-328 m/s against the true +72 at 21.7 s), the
+    # barometer is left out, and its bound's margin, grown from the doubled drag, covered the
+    # barometer's distance to the filter: the accelerometer-only apogee fired 7.1 s early at
+    # 72 m/s. The hold counts the filter's own error without the liar's margin (a hold only
+    # delays): the drogue waits for the backup timer (D16 rule 14)
+    import dataclasses
+
+    fl = flight(MACH_ROCKET)
+    accel = fl.accel_mmps2.copy()
+    after = fl.time_s >= 2.6
+    accel[after] = accel[after] * 2
+    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3))
+    assert -3.5 <= out.early_s <= 0.1, "drogue %.2f s before apogee" % out.early_s
+
+
 @pytest.mark.parametrize("rocket", [MACH_ROCKET, MACH14_ROCKET], ids=["mach2.4", "mach1.65"])
 def test_an_accelerometer_reading_an_eighth_of_the_truth_is_retired(rocket):
     # a 16 g part reset by a brown-out to another range 1 s before launch, read with the
