@@ -1124,6 +1124,10 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         restart = False
     if flags & HEALTH_ACCEL_BAD and arb.valid:
         arb.stop()  # its integral no longer bounds anything, for the rest of the flight
+        if fc.launched:
+            # nor do its proof integrals, which skipped the readings judged bad: a proof still
+            # owed comes from the barometer alone (D13)
+            fc.acc_account = False
     valid = arb.valid or restart
     if not (valid and state < DROGUE):  # the track serves the ascent's decisions
         fc._arb_ms = now_ms

@@ -574,6 +574,25 @@ def test_an_accelerometer_that_read_zeros_for_half_a_second_of_the_boost_is_not_
     assert abs(out.early_s) <= 0.1, "drogue %.2f s before apogee" % out.early_s
 
 
+@pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH14_ROCKET], ids=["mach1.0", "mach1.65"])
+def test_an_accelerometer_judged_frozen_before_proof_leaves_the_proof_to_the_barometer(rocket):
+    # 0.3 s into the boost the part is reset to half its range and read with the configured scale:
+    # twice the truth, clipped at 16 g. Below the 27 to 40 g it read before, a held 16 g is no
+    # clip but a frozen part, and its proof integrals stop; at burnout it reads again (twice the
+    # drag). Its integrated height then never agreed with the barometer's nor reached the third
+    # account's 100 m: the flight, climbing 2 to 4 km, was never proven and nothing fired. Judged
+    # bad in flight, its integrals give no account: the barometer proves the flight alone (D13)
+    import dataclasses
+
+    fl = flight(rocket)
+    accel = fl.accel_mmps2.copy()
+    after = fl.time_s >= 0.3
+    accel[after] = np.clip(accel[after] * 2, -16 * 9807, 16 * 9807)
+    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3))
+    assert out.fc.flight_proven
+    assert abs(out.early_s) <= 0.1, "drogue %.2f s before apogee" % out.early_s
+
+
 def test_an_accelerometer_reading_twice_the_truth_in_coast_does_not_decide_alone():
     # from 1 s after the Mach 2.4 flight's burnout the accelerometer reads twice the specific
     # force (a part reset in flight to half its range, read with the configured scale): the
