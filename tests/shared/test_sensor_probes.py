@@ -1,0 +1,113 @@
+"""Sensor failures outside the fault model (docs/FAULTS.md), probed on the three rockets of
+tests/support/fault_flight.py and kept as a regression net: a part stuck at a value, a
+part reset in flight to another range, a barometer frozen for 2 s, both sensors reading garbage
+for 0.2 s, a lagging or coarsely quantised barometer, an accelerometer read at 10 Hz. None may
+fire the drogue more than 0.5 s before apogee, and every one must fire one (the backup timer set
+as docs/CONFIG.md tells users, nominal apogee + 3 s). Each probe that fired early or not at all
+when it was first flown is a rule in docs/DESIGN.md with its own test; docs/BENCHMARKS.md lists
+the probes and what is still open.
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from tests.shared.test_arbitration import EARLY_LIMIT_S, MACH14_ROCKET, flight
+from tests.support.fault_flight import MACH_ROCKET, SUBSONIC_ROCKET, run
+
+ROCKETS = {"mach1.0": SUBSONIC_ROCKET, "mach1.65": MACH14_ROCKET, "mach2.4": MACH_ROCKET}
+G = 9807
+
+
+def _stuck(fl, at_s, value_g):
+    """Stuck at a value from ``at_s`` on."""
+    accel = fl.accel_mmps2.copy()
+    accel[fl.time_s >= at_s] = int(value_g * G)
+    return {"accel_mmps2": accel}
+
+
+def _scaled(fl, at_s, factor):
+    """Reads ``factor`` x the specific force from ``at_s`` on (a part reset to another range)."""
+    accel = fl.accel_mmps2.copy()
+    after = fl.time_s >= at_s
+    accel[after] = (accel[after] * factor).astype(np.int64)
+    return {"accel_mmps2": accel}
+
+
+def _baro_frozen(fl, at_s):
+    """The barometer repeats one reading for 2 s, then reads again."""
+    alt = fl.alt_mm.copy()
+    held = np.flatnonzero((fl.time_s >= at_s) & (fl.time_s < at_s + 2.0))
+    alt[held] = alt[held[0]]
+    return {"alt_mm": alt}
+
+
+def _garbage(fl, at_s):
+    """Both sensors read random values for 0.2 s (+-500 m, +-16 g)."""
+    rng = np.random.default_rng(1)
+    alt, accel = fl.alt_mm.copy(), fl.accel_mmps2.copy()
+    burst = (fl.time_s >= at_s) & (fl.time_s < at_s + 0.2)
+    alt[burst] += rng.integers(-500000, 500000, burst.sum())
+    accel[burst] = rng.integers(-16 * G, 16 * G, burst.sum())
+    return {"alt_mm": alt, "accel_mmps2": accel}
+
+
+def _baro_lagged(fl, tau_s=0.5):
+    """A barometer behind a first-order lag (a heavily filtered part, a small port)."""
+    alt = fl.alt_mm.astype(float)
+    out = np.empty_like(alt)
+    y = alt[0]
+    for i, (a, dt_us) in enumerate(zip(alt, fl.dt_us, strict=True)):
+        y += (a - y) * (dt_us / 1e6) / tau_s
+        out[i] = y
+    return {"alt_mm": out.astype(np.int64)}
+
+
+def _probes():
+    cases = []
+    for name, rocket in ROCKETS.items():
+        burn = rocket.burn_s
+        for at_s in (0.5, burn + 1.0):
+            for value_g in (0.5, -0.5, 2.0):
+                cases.append((name, "accel stuck at %+.1f g from %.1f s" % (value_g, at_s),
+                              ("stuck", at_s, value_g)))
+        for at_s in (0.5, burn + 1.0, burn + 5.0):
+            for factor in (2.0, 0.5):
+                cases.append((name, "accel x%.1f from %.1f s" % (factor, at_s), ("scaled", at_s, factor)))
+        for at_s in (0.5, burn + 0.5, burn + 5.0):
+            cases.append((name, "baro frozen 2 s from %.1f s" % at_s, ("frozen", at_s)))
+        for at_s in (0.3, burn + 0.2, burn + 5.0):
+            cases.append((name, "garbage 0.2 s at %.1f s" % at_s, ("garbage", at_s)))
+        cases.append((name, "baro lag 0.5 s", ("lag",)))
+        cases.append((name, "baro quantised to 8 m", ("quantised",)))
+        cases.append((name, "accel read at 10 Hz", ("held",)))
+    return sorted(set(cases))
+
+
+def _apply(fl, probe):
+    kind = probe[0]
+    if kind == "stuck":
+        return _stuck(fl, probe[1], probe[2])
+    if kind == "scaled":
+        return _scaled(fl, probe[1], probe[2])
+    if kind == "frozen":
+        return _baro_frozen(fl, probe[1])
+    if kind == "garbage":
+        return _garbage(fl, probe[1])
+    if kind == "lag":
+        return _baro_lagged(fl)
+    if kind == "quantised":
+        return {"alt_mm": fl.alt_mm // 8000 * 8000}
+    index = np.arange(len(fl.accel_mmps2))  # "held"
+    return {"accel_mmps2": fl.accel_mmps2[index // 10 * 10]}
+
+
+@pytest.mark.parametrize("name, label, probe", _probes(), ids=lambda v: v if isinstance(v, str) else "")
+def test_a_sensor_failure_outside_the_fault_model_never_fires_early(name, label, probe):
+    rocket = ROCKETS[name]
+    fl = flight(rocket)
+    out = run(dataclasses.replace(fl, **_apply(fl, probe)), backup_drogue_s=round(fl.apogee_s + 3))
+    assert out.drogue_s is not None, "no drogue"
+    assert out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
+    assert -out.early_s <= 3.6, "drogue %.2f s after apogee, after the backup timer" % -out.early_s
