@@ -10,6 +10,8 @@ persist, sensors that freeze or die at any instant. The backup timer is set as d
 tells users (nominal apogee + 3 s).
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -48,6 +50,12 @@ def flight(rocket, faults=None, **kw):
     if key not in _FLIGHTS:
         _FLIGHTS[key] = fly(rocket, faults, **kw)
     return _FLIGHTS[key]
+
+
+def run_with_readings(fl, config=None, **readings):
+    """Fly the board over ``fl`` with some of its readings replaced (``alt_mm``, ``accel_mmps2``),
+    the backup timer set as docs/CONFIG.md tells users (nominal apogee + 3 s)."""
+    return run(dataclasses.replace(fl, **readings), backup_drogue_s=round(fl.apogee_s + 3), **(config or {}))
 
 
 def drogue_near_apogee(fl, sensors="both", late_s=0.3, **config):
@@ -519,12 +527,10 @@ def test_a_barometer_glitching_faster_than_any_rocket_is_not_used(rocket, every,
     # before it, so neither it nor the reading after it is used. In the boost the filter's gate
     # is 100 m wide, and the glitches let in there put the drogue 0.41 s early on the subsonic
     # rocket and 0.98 s late on the Mach 1.65 one; left out, both fire at apogee
-    import dataclasses
-
     fl = flight(rocket)
     alt_mm = fl.alt_mm.copy()
     alt_mm[np.flatnonzero((fl.time_s > 0.05) & (fl.time_s < fl.apogee_s + 5))[::every]] += int(spike_m * 1000)
-    out = run(dataclasses.replace(fl, alt_mm=alt_mm), backup_drogue_s=round(fl.apogee_s + 3))
+    out = run_with_readings(fl, alt_mm=alt_mm)
     assert out.fc.health.baro_spikes > 0
     assert abs(out.early_s) <= 0.1, "drogue %.2f s before apogee" % out.early_s
 
@@ -544,9 +550,7 @@ def test_an_accelerometer_reading_zeros_through_the_boost_is_retired(rocket):
     fl = flight(rocket)
     accel = fl.accel_mmps2.copy()
     accel[(fl.time_s >= 0.3) & (fl.time_s < 3.0)] = 0
-    import dataclasses
-
-    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3))
+    out = run_with_readings(fl, accel_mmps2=accel)
     assert any(h & HEALTH_ACCEL_IMPLAUSIBLE for _, _, _, h in out.events)
     assert abs(out.early_s) <= 0.1, "drogue %.2f s before apogee" % out.early_s
 
@@ -568,9 +572,7 @@ def test_an_accelerometer_that_read_zeros_for_half_a_second_of_the_boost_is_not_
     fl = flight(rocket)
     accel = fl.accel_mmps2.copy()
     accel[(fl.time_s >= start_s) & (fl.time_s < until_s)] = 0
-    import dataclasses
-
-    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3))
+    out = run_with_readings(fl, accel_mmps2=accel)
     assert abs(out.early_s) <= 0.1, "drogue %.2f s before apogee" % out.early_s
 
 
@@ -582,13 +584,11 @@ def test_an_accelerometer_judged_frozen_before_proof_leaves_the_proof_to_the_bar
     # drag). Its integrated height then never agreed with the barometer's nor reached the third
     # account's 100 m: the flight, climbing 2 to 4 km, was never proven and nothing fired. Judged
     # bad in flight, its integrals give no account: the barometer proves the flight alone (D13)
-    import dataclasses
-
     fl = flight(rocket)
     accel = fl.accel_mmps2.copy()
     after = fl.time_s >= 0.3
     accel[after] = np.clip(accel[after] * 2, -16 * 9807, 16 * 9807)
-    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3))
+    out = run_with_readings(fl, accel_mmps2=accel)
     assert out.fc.flight_proven
     assert abs(out.early_s) <= 0.1, "drogue %.2f s before apogee" % out.early_s
 
@@ -601,13 +601,11 @@ def test_an_accelerometer_reading_twice_the_truth_in_coast_does_not_decide_alone
     # barometer's distance to the filter: the accelerometer-only apogee fired 7.1 s early at
     # 72 m/s. The hold counts the filter's own error without the liar's margin (a hold only
     # delays): the drogue waits for the backup timer (D16 rule 14)
-    import dataclasses
-
     fl = flight(MACH_ROCKET)
     accel = fl.accel_mmps2.copy()
     after = fl.time_s >= 2.6
     accel[after] = accel[after] * 2
-    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3))
+    out = run_with_readings(fl, accel_mmps2=accel)
     assert -3.5 <= out.early_s <= 0.1, "drogue %.2f s before apogee" % out.early_s
 
 
@@ -619,12 +617,9 @@ def test_an_accelerometer_reading_an_eighth_of_the_truth_is_retired(rocket):
     # climbs never agree: no drogue at all before D16 rule 14. The barometer parts from the
     # accelerometer-carried filter by more than any barometric error: retired, drogue at apogee
     fl = flight(rocket)
-    import dataclasses
-
     accel = fl.accel_mmps2.copy()
     accel[fl.time_s >= -1.0] //= 8
-    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3),
-              accel_range_g=16)
+    out = run_with_readings(fl, {"accel_range_g": 16}, accel_mmps2=accel)
     assert any(h & HEALTH_ACCEL_IMPLAUSIBLE for _, _, _, h in out.events)
     assert out.early_s is not None and abs(out.early_s) <= 0.1
 
@@ -638,9 +633,7 @@ def test_an_accelerometer_glitching_to_full_scale_in_the_boost_does_not_decide_a
     fl = flight(rocket)
     accel = fl.accel_mmps2.copy()
     accel[np.flatnonzero((fl.time_s >= 0.3) & (fl.time_s < 3.0))[::3]] = -16 * 9807
-    import dataclasses
-
-    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3))
+    out = run_with_readings(fl, accel_mmps2=accel)
     assert out.drogue_s is not None
     assert out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
 
@@ -656,9 +649,7 @@ def test_an_accelerometer_glitching_to_full_scale_in_coast_does_not_decide_alone
     fl = flight(rocket)
     accel = fl.accel_mmps2.copy()
     accel[np.flatnonzero(fl.time_s >= 3.0)[::3]] = -16 * 9807
-    import dataclasses
-
-    out = run(dataclasses.replace(fl, accel_mmps2=accel), backup_drogue_s=round(fl.apogee_s + 3))
+    out = run_with_readings(fl, accel_mmps2=accel)
     assert -1.0 <= out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
 
 
@@ -683,13 +674,11 @@ def test_a_barometer_reading_random_kilometres_is_not_used(rocket, from_s):
     # drogue fired 6.9 to 15.1 s early. Four impossible readings in a row make it erratic: none of
     # its readings is used until it has read nothing impossible for 2 s, and the accelerometer
     # decides alone (late by its margin: here the backup timer fires)
-    import dataclasses
-
     fl = flight(rocket)
     alt_mm = fl.alt_mm.copy()
     noisy = fl.time_s >= from_s
     alt_mm[noisy] += np.random.default_rng(1).integers(-2000000, 2000000, int(noisy.sum()))
-    out = run(dataclasses.replace(fl, alt_mm=alt_mm), backup_drogue_s=round(fl.apogee_s + 3))
+    out = run_with_readings(fl, alt_mm=alt_mm)
     assert out.drogue_s is not None
     assert out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
 

@@ -8,13 +8,11 @@ when it was first flown is a rule in docs/DESIGN.md with its own test; docs/BENC
 the probes and what is still open.
 """
 
-import dataclasses
-
 import numpy as np
 import pytest
 
-from tests.shared.test_arbitration import EARLY_LIMIT_S, MACH14_ROCKET, flight
-from tests.support.fault_flight import MACH_ROCKET, SUBSONIC_ROCKET, run
+from tests.shared.test_arbitration import EARLY_LIMIT_S, MACH14_ROCKET, flight, run_with_readings
+from tests.support.fault_flight import MACH_ROCKET, SUBSONIC_ROCKET
 
 ROCKETS = {"mach1.0": SUBSONIC_ROCKET, "mach1.65": MACH14_ROCKET, "mach2.4": MACH_ROCKET}
 G = 9807
@@ -107,7 +105,7 @@ def _apply(fl, probe):
 def test_a_sensor_failure_outside_the_fault_model_never_fires_early(name, label, probe):
     rocket = ROCKETS[name]
     fl = flight(rocket)
-    out = run(dataclasses.replace(fl, **_apply(fl, probe)), backup_drogue_s=round(fl.apogee_s + 3))
+    out = run_with_readings(fl, **_apply(fl, probe))
     assert out.drogue_s is not None, "no drogue"
     assert out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
     assert -out.early_s <= 3.6, "drogue %.2f s after apogee, after the backup timer" % -out.early_s
