@@ -109,7 +109,7 @@ class PadCalibration:
         kf.reset(alt_mm, 0, 0)
         self._ref_mm = alt_mm
         self._blk_alt = self._blk_alt_n = self._blk_acc = self._blk_acc_n = 0
-        self._prev_alt_n = self._prev_acc_n = 0
+        self._prev_alt = self._prev_alt_n = self._prev_acc = self._prev_acc_n = 0
         self._pend_alt = self._pend_alt_n = 0
         self._baro_ms = -1
         if not self.ground_fixed:

@@ -443,6 +443,25 @@ def test_a_barometer_erratic_at_ignition_does_not_cancel_the_flight(spike_mm, ev
     assert abs(first(events, EV_DROGUE) - apogee) <= 30
 
 
+@pytest.mark.parametrize("seed", [2, 3, 4])
+def test_single_barometer_glitches_on_the_pad_leave_the_orientation_check_right(seed):
+    # one reading in a hundred 100 m off, of either sign, from the pad on (a bus error, a reading
+    # taken mid-conversion): each glitch re-bases the pad twice (on it and back). The re-base
+    # emptied the previous block's counts but not its sums, and the orientation check at the
+    # block's end divided the stale sum by the new count: "not upright", launch refused, and the
+    # board fired nothing at all on 6 of 10 draws of a 30 s pad (these three among them)
+    dts, alts, accs, truth, apogee = flight(pad_s=30, after_apogee_s=200)
+    rng = np.random.default_rng(seed)
+    glitched = rng.random(len(alts)) < 0.01
+    alts = alts.copy()
+    alts[glitched] += rng.choice([-100000, 100000], glitched.sum())
+    fc, events, _ = run(dts, alts, accs, HAVE_BOTH, main_deploy_m=500)
+    assert not fc.errors & 1  # ERR_ORIENTATION
+    assert abs(first(events, EV_LAUNCH) - 3000) <= 20  # 30 s of pad at 100 Hz
+    assert abs(first(events, EV_DROGUE) - apogee) <= 30
+    assert abs(truth[first(events, EV_MAIN)] - 300000 - 500000) <= 20000
+
+
 @pytest.mark.parametrize("boost_mmps2, burn_ms, zeros_s", [
     (100000, 2000, None), (100000, 2000, 1.0), (6900, 6000, None)], ids=["10g", "10g-for-1s", "slow-0.7g"])
 def test_zeros_from_ignition_leave_the_barometer_to_launch_and_prove(boost_mmps2, burn_ms, zeros_s):

@@ -1,7 +1,9 @@
 """Sensor failures outside the fault model (docs/FAULTS.md), probed on the three rockets of
 tests/support/fault_flight.py and kept as a regression net: a part stuck at a value, a
 part reset in flight to another range, a barometer frozen for 2 s, both sensors reading garbage
-for 0.2 s, a lagging or coarsely quantised barometer, an accelerometer read at 10 Hz. None may
+for 0.2 s, a lagging or coarsely quantised barometer, an accelerometer read at 10 Hz; single
+barometric glitches from the pad on, a loop that stalls, an accelerometer that vibrates or whose
+bias steps, a barometer read at 5 to 20 Hz or drifting at 3 m/s. None may
 fire the drogue more than 0.5 s before apogee, and every one must fire one (the backup timer set
 as docs/CONFIG.md tells users, nominal apogee + 3 s). Each probe that fired early or not at all
 when it was first flown is a rule in docs/DESIGN.md with its own test; docs/BENCHMARKS.md lists
@@ -62,6 +64,43 @@ def _baro_lagged(fl, tau_s=0.5):
     return {"alt_mm": out.astype(np.int64)}
 
 
+def _glitches(fl, seed):
+    """One reading in a hundred 100 m off, of either sign, pad included (a bus error, a reading
+    taken mid-conversion)."""
+    rng = np.random.default_rng(seed)
+    alt = fl.alt_mm.copy()
+    hit = rng.random(len(alt)) < 0.01
+    alt[hit] += rng.choice([-100000, 100000], hit.sum())
+    return {"alt_mm": alt}
+
+
+def _stalls(fl, seed, chance, shortest, longest):
+    """The loop stalls: from a sample, with ``chance``, the next ``shortest`` to ``longest``
+    samples are never read, and the sample after them carries the whole time since (a flash
+    write, a bus hang)."""
+    rng = np.random.default_rng(seed)
+    keep = np.ones(len(fl.dt_us), bool)
+    i = 1
+    while i < len(keep):
+        if rng.random() < chance:
+            n = int(rng.integers(shortest, longest + 1))
+            keep[i:i + n] = False
+            i += n
+        i += 1
+    clock = np.cumsum(fl.dt_us)[keep]
+    dt_us = np.diff(clock, prepend=clock[0] - fl.dt_us[0])
+    fields = ("alt_mm", "accel_mmps2", "have", "time_s", "true_alt_m", "true_vel_mps", "mach")
+    return dict({name: getattr(fl, name)[keep] for name in fields}, dt_us=dt_us)
+
+
+def _vibration(fl, at_s, rms_g):
+    """Zero-mean noise of ``rms_g`` added to the accelerometer from ``at_s`` on (a loose sled)."""
+    accel = fl.accel_mmps2.copy()
+    after = fl.time_s >= at_s
+    accel[after] += np.random.default_rng(1).normal(0, rms_g * G, after.sum()).astype(np.int64)
+    return {"accel_mmps2": accel}
+
+
 def _probes():
     cases = []
     for name, rocket in ROCKETS.items():
@@ -80,6 +119,19 @@ def _probes():
         cases.append((name, "baro lag 0.5 s", ("lag",)))
         cases.append((name, "baro quantised to 8 m", ("quantised",)))
         cases.append((name, "accel read at 10 Hz", ("held",)))
+        for seed in (0, 1, 2):
+            cases.append((name, "baro glitches 1%% of 100 m, seed %d" % seed, ("glitches", seed)))
+            cases.append((name, "stalls of 50-300 ms, seed %d" % seed, ("stalls", seed, 0.01, 5, 30)))
+            cases.append((name, "stalls of 0.5-1 s, seed %d" % seed, ("stalls", seed, 0.002, 50, 100)))
+        cases.append((name, "accel vibrating at 4 g rms from burnout", ("vibration", burn, 4.0)))
+        for at_s in (burn + 1.0, burn + 5.0):
+            for step in (3.0, -3.0, 6.0, -6.0):
+                cases.append((name, "accel bias step %+.0f m/s^2 at %.1f s" % (step, at_s),
+                              ("bias", at_s, step)))
+        for every in (5, 10, 20):
+            cases.append((name, "baro read every %d samples" % every, ("baro_every", every)))
+        for rate_mps in (3.0, -3.0):
+            cases.append((name, "baro drifting %+.0f m/s from burnout" % rate_mps, ("drift", burn, rate_mps)))
     return sorted(set(cases))
 
 
@@ -97,6 +149,20 @@ def _apply(fl, probe):
         return _baro_lagged(fl)
     if kind == "quantised":
         return {"alt_mm": fl.alt_mm // 8000 * 8000}
+    if kind == "glitches":
+        return _glitches(fl, probe[1])
+    if kind == "stalls":
+        return _stalls(fl, *probe[1:])
+    if kind == "vibration":
+        return _vibration(fl, probe[1], probe[2])
+    if kind == "bias":
+        return {"accel_mmps2": fl.accel_mmps2 + (fl.time_s >= probe[1]) * int(probe[2] * 1000)}
+    if kind == "baro_every":
+        index = np.arange(len(fl.alt_mm))
+        return {"alt_mm": fl.alt_mm[index // probe[1] * probe[1]]}
+    if kind == "drift":
+        after = np.maximum(fl.time_s - probe[1], 0.0)
+        return {"alt_mm": fl.alt_mm + (after * probe[2] * 1000).astype(np.int64)}
     index = np.arange(len(fl.accel_mmps2))  # "held"
     return {"accel_mmps2": fl.accel_mmps2[index // 10 * 10]}
 
