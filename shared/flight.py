@@ -400,7 +400,7 @@ class FlightComputer:
         kf = self.kf
         if state == PAD:
             pad = self.pad
-            update_pad(pad, now_ms, alt_mm, accel_mmps2, have, kf)
+            have = update_pad(pad, now_ms, alt_mm, accel_mmps2, have, kf)
             self.errors = (self.errors & ~PAD_ERRORS) | pad.errors
             self.ground_alt_mm = pad.ground_alt_mm
             self.one_g_mmps2 = pad.one_g_mmps2

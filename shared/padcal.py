@@ -29,8 +29,9 @@ _PAD_OFFSET_LIMIT_MM = const(0xFFFFF)  # 2**20 - 1: 1 km
 # range, an inverted mount, or a board lying down (docs/DESIGN.md D4).
 _ONE_G_MIN = const(4903)
 _ONE_G_MAX = const(14710)
-# On the pad a barometric jump larger than this (mm) is a pressure step (av-bay sealed, a gust,
-# a glitch), not a climb: the filter and the ground reference re-base on the new level.
+# On the pad a barometric jump from the filter larger than this (mm) is not a climb: a pressure
+# step (av-bay sealed, a gust) when the next reading stays with it, and the filter and the ground
+# reference re-base on the new level; else a glitch, not used.
 PAD_BARO_JUMP_MM = const(50000)
 # A pad sample pushing up (0.5 g above the 1 g reference) while the barometer reads a climb (3 m:
 # three times a quiet pad's noise) and the filter climbs (3 m/s) is not quiet: a rocket of low
@@ -43,8 +44,8 @@ _QUIET_SPEED_MMPS = const(3000)
 
 # Error flags (bits of FlightComputer.errors that this module owns).
 ERR_ORIENTATION = const(1)  # pad accelerometer reading is not about +1 g
-ERR_PAD_BARO_STEP = const(4)  # the barometer jumped on the pad (re-based)
-ERR_BARO_ERRATIC = const(8)  # repeated jumps on the pad: a faulty barometer; no launch by height
+ERR_PAD_BARO_STEP = const(4)  # the barometer jumped on the pad (a step, or a glitch)
+ERR_BARO_ERRATIC = const(8)  # repeated steps on the pad: a faulty barometer; no launch by height
 PAD_ERRORS = const(13)  # ERR_ORIENTATION | ERR_PAD_BARO_STEP | ERR_BARO_ERRATIC
 # The ground at launch is the reference as it stood at least this long before the launch sample
 # (two history slots of _HISTORY_MS): ignition, first motion and a bad reading on the launch
@@ -83,7 +84,8 @@ class PadCalibration:
         self._accel_quiet = True  # the verdict of the last accelerometer reading
         self._accel_ms = 0  # when it was taken
         self._pend_alt = self._pend_alt_n = 0  # barometric readings awaiting the next verdict
-        self._baro_ms = -1  # when the last barometric reading was taken (-1: none yet)
+        self._baro_ms = -1  # when the last barometric reading was taken (-1: none since a re-base
+        # or a jump)
         self._baro_alt_mm = 0  # that reading
         self._hist_ms = 0  # when the newest history slot was taken
         self._hist0 = 0  # the ground reference at the last three 100 ms ticks, newest first
@@ -118,7 +120,8 @@ class PadCalibration:
 
 def update_pad(pad, now_ms, alt_mm, accel_mmps2, have, kf):
     """Average a quiet pad sample's readings into the references; re-base ``kf`` on a pressure
-    step (or on the first barometric reading when the first samples had none).
+    step (or on the first barometric reading when the first samples had none). Returns ``have``,
+    without the barometer when its reading is a glitch (for the filter too).
 
     A module-level function taking the calibration, whose usual path calls no method: on
     MicroPython a method call costs as much as a dozen arithmetic operations, a function call half
@@ -134,17 +137,23 @@ def update_pad(pad, now_ms, alt_mm, accel_mmps2, have, kf):
             pad._ref_pending = False
             pad._rebase(alt_mm, kf)
             pad._hist0 = pad._hist1 = pad._hist2 = pad.ground_alt_mm
-            return
+            return have
         jump = alt_mm - (kf.alt_q4 >> 4)
         if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
             pad.errors |= ERR_PAD_BARO_STEP
+            # a step stays: the reading before this one jumped too (a reading near the filter
+            # sets ``_baro_ms``, a jump clears it). A single reading off and back is a glitch (a
+            # bus error, a reading taken mid-conversion): not used, not a step
+            if pad._baro_ms >= 0:
+                pad._baro_ms = -1
+                return have & HAVE_ACCEL
             # one step is weather or the av-bay; three within a second is a broken sensor
             pad._jumps = pad._jumps + 1 if now_ms - pad._last_jump_ms < 1000 else 1
             pad._last_jump_ms = now_ms
             if pad._jumps >= 3:
                 pad.errors |= ERR_BARO_ERRATIC
             pad._rebase(alt_mm, kf)
-            return
+            return have
         if pad.errors & ERR_BARO_ERRATIC and now_ms - pad._last_jump_ms > 2000:
             pad.errors &= ~ERR_BARO_ERRATIC
         pad._baro_ms = now_ms
@@ -176,7 +185,7 @@ def update_pad(pad, now_ms, alt_mm, accel_mmps2, have, kf):
         pad._accel_quiet = quiet
         pad._accel_ms = now_ms
         if not quiet:
-            return
+            return have
         if baro:  # (_add_alt written out: the usual pad sample)
             pad._blk_alt += d_alt
             pad._blk_alt_n += 1
@@ -204,6 +213,7 @@ def update_pad(pad, now_ms, alt_mm, accel_mmps2, have, kf):
         pad._blk_start_ms = now_ms
     elif first:  # all quiet readings so far: this block's (every sample of the first second)
         _apply(pad, pad._blk_alt, pad._blk_alt_n, pad._blk_acc, pad._blk_acc_n)
+    return have
 
 
 def _check_orientation(pad, one_g):

@@ -2,8 +2,9 @@
 tests/support/fault_flight.py and kept as a regression net: a part stuck at a value, a
 part reset in flight to another range, a barometer frozen for 2 s, both sensors reading garbage
 for 0.2 s, a lagging or coarsely quantised barometer, an accelerometer read at 10 Hz; single
-barometric glitches from the pad on, a loop that stalls, an accelerometer that vibrates or whose
-bias steps, a barometer read at 5 to 20 Hz or drifting at 3 m/s. None may
+glitches of either sensor from the pad on, a loop that stalls or whose time steps jitter, an
+accelerometer that vibrates or whose bias steps, a barometer read at 5 to 20 Hz, repeating old
+readings or drifting at 3 m/s. None may
 fire the drogue more than 0.5 s before apogee, and every one must fire one (the backup timer set
 as docs/CONFIG.md tells users, nominal apogee + 3 s). Each probe that fired early or not at all
 when it was first flown is a rule in docs/DESIGN.md with its own test; docs/BENCHMARKS.md lists
@@ -64,13 +65,46 @@ def _baro_lagged(fl, tau_s=0.5):
     return {"alt_mm": out.astype(np.int64)}
 
 
-def _glitches(fl, seed):
-    """One reading in a hundred 100 m off, of either sign, pad included (a bus error, a reading
-    taken mid-conversion)."""
+def _glitches(fl, seed, chance=0.01, off_mm=100000):
+    """Readings ``off_mm`` off, of either sign, with ``chance`` each, pad included (a bus error, a
+    reading taken mid-conversion)."""
     rng = np.random.default_rng(seed)
     alt = fl.alt_mm.copy()
-    hit = rng.random(len(alt)) < 0.01
-    alt[hit] += rng.choice([-100000, 100000], hit.sum())
+    hit = rng.random(len(alt)) < chance
+    alt[hit] += rng.choice([-off_mm, off_mm], hit.sum())
+    return {"alt_mm": alt}
+
+
+def _accel_glitches(fl, seed, chance, value_g):
+    """Accelerometer readings replaced, with ``chance`` each, by +-``value_g`` (negative: that
+    value only)."""
+    rng = np.random.default_rng(seed)
+    accel = fl.accel_mmps2.copy()
+    hit = rng.random(len(accel)) < chance
+    sign = rng.choice([-1, 1], hit.sum()) if value_g > 0 else -1
+    accel[hit] = sign * int(abs(value_g) * G)
+    return {"accel_mmps2": accel}
+
+
+def _jitter(fl, seed, fraction):
+    """Each sample's time step off by up to +-``fraction`` (a loop timed by a drifting tick)."""
+    rng = np.random.default_rng(seed)
+    dt_us = fl.dt_us.copy()
+    dt_us[1:] = (dt_us[1:] * (1 + rng.uniform(-fraction, fraction, len(dt_us) - 1))).astype(np.int64)
+    return {"dt_us": dt_us}
+
+
+def _baro_repeats(fl, seed, chance, samples):
+    """With ``chance`` per sample, the barometer repeats its last reading for ``samples`` samples
+    (a bus retried, the old value returned)."""
+    rng = np.random.default_rng(seed)
+    alt = fl.alt_mm.copy()
+    i = 1
+    while i < len(alt):
+        if rng.random() < chance:
+            alt[i:i + samples] = alt[i - 1]
+            i += samples
+        i += 1
     return {"alt_mm": alt}
 
 
@@ -120,7 +154,8 @@ def _probes():
         cases.append((name, "baro quantised to 8 m", ("quantised",)))
         cases.append((name, "accel read at 10 Hz", ("held",)))
         for seed in (0, 1, 2):
-            cases.append((name, "baro glitches 1%% of 100 m, seed %d" % seed, ("glitches", seed)))
+            cases.append((name, "baro glitches 1%% of 100 m, seed %d" % seed,
+                          ("glitches", seed, 0.01, 100000)))
             cases.append((name, "stalls of 50-300 ms, seed %d" % seed, ("stalls", seed, 0.01, 5, 30)))
             cases.append((name, "stalls of 0.5-1 s, seed %d" % seed, ("stalls", seed, 0.002, 50, 100)))
         cases.append((name, "accel vibrating at 4 g rms from burnout", ("vibration", burn, 4.0)))
@@ -130,6 +165,13 @@ def _probes():
                               ("bias", at_s, step)))
         for every in (5, 10, 20):
             cases.append((name, "baro read every %d samples" % every, ("baro_every", every)))
+        cases.append((name, "baro glitches 5% of 100 m", ("glitches", 0, 0.05, 100000)))
+        cases.append((name, "baro glitches 1% of 1 km", ("glitches", 0, 0.01, 1000000)))
+        cases.append((name, "accel glitches 1% of +-50 g", ("accel_glitches", 0, 0.01, 50.0)))
+        cases.append((name, "accel glitches 1% of -16 g", ("accel_glitches", 0, 0.01, -16.0)))
+        cases.append((name, "accel glitches 5% of +-16 g", ("accel_glitches", 0, 0.05, 16.0)))
+        cases.append((name, "time steps 30% off", ("jitter", 0, 0.3)))
+        cases.append((name, "baro repeating 5 samples, 2%", ("repeats", 0, 0.02, 5)))
         for rate_mps in (3.0, -3.0):
             cases.append((name, "baro drifting %+.0f m/s from burnout" % rate_mps, ("drift", burn, rate_mps)))
     return sorted(set(cases))
@@ -150,7 +192,13 @@ def _apply(fl, probe):
     if kind == "quantised":
         return {"alt_mm": fl.alt_mm // 8000 * 8000}
     if kind == "glitches":
-        return _glitches(fl, probe[1])
+        return _glitches(fl, *probe[1:])
+    if kind == "accel_glitches":
+        return _accel_glitches(fl, *probe[1:])
+    if kind == "jitter":
+        return _jitter(fl, *probe[1:])
+    if kind == "repeats":
+        return _baro_repeats(fl, *probe[1:])
     if kind == "stalls":
         return _stalls(fl, *probe[1:])
     if kind == "vibration":
