@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from desktop.io.files import read_text
-from desktop.io.flightcsv import FlightCSVError
+from desktop.io.flightcsv import ACCEL_MAX_MPS2, FlightCSVError
 from shared.physics import G0_MPS2
 
 ALTOS_MISSING = 2147483647.0
@@ -180,7 +180,14 @@ def read_altos_csv(path):
                              f"{PRESSURE_RANGE_PA[1]:.0f})")
     columns = {"time_s": time_s[keep], "pressure_pa": pressure}
     if "acceleration" in index:
-        columns["accel_mps2"] = column("acceleration") + G0_MPS2
+        accel = column("acceleration") + G0_MPS2
+        bad = np.flatnonzero(np.abs(accel) > ACCEL_MAX_MPS2)
+        if bad.size:
+            i = keep[int(bad[0])]
+            text = rows[i][index["acceleration"]].strip()
+            raise FlightCSVError(spath, row_lines[i], f"AltosUI column 'acceleration': {text} m/s^2 is "
+                                 f"implausible (expected at most {ACCEL_MAX_MPS2:.0f}, 2000 g, either sign)")
+        columns["accel_mps2"] = accel
     for name, out in _CARRIED:
         if name == "state_name":
             columns[out] = np.array([states[i] for i in keep], dtype=object)

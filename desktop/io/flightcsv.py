@@ -40,11 +40,15 @@ __all__ = [
     "read_flight_csv",
     "write_flight_csv",
     "PRESSURE_MAX_PA",
+    "ACCEL_MAX_MPS2",
     "NO_MAIN",
 ]
 
 #: Pressure above this (Pa) is rejected as implausible (sea level is ~101325 Pa).
 PRESSURE_MAX_PA = 200000.0
+#: An accelerometer reading beyond this (m/s^2, 2000 g) is rejected as implausible: no part's
+#: register reports it (an ADXL375's 16-bit register at 49 mg per count reads at most 1606 g).
+ACCEL_MAX_MPS2 = 19613.3
 #: `# main_deploy_m: none`: the rocket has no main parachute (single deployment).
 NO_MAIN = "none"
 
@@ -410,6 +414,15 @@ def read_flight_csv(path) -> FlightLog:
                 spath, row_lines[i], f"column '{PRESSURE}': {cols[seen[PRESSURE]][i]} Pa is implausible "
                 f"(expected 0 < p <= {PRESSURE_MAX_PA:.0f})"
             )
+    a = sensors[ACCEL]
+    if a is not None:
+        bad = np.flatnonzero(np.abs(a) > ACCEL_MAX_MPS2)
+        if bad.size:
+            i = int(bad[0])
+            raise FlightCSVError(
+                spath, row_lines[i], f"column '{ACCEL}': {cols[seen[ACCEL]][i]} m/s^2 is implausible "
+                f"(expected at most {ACCEL_MAX_MPS2:.0f}, 2000 g, either sign)"
+            )
     if not any(a is not None and np.isfinite(a).any() for a in (p, sensors[ALTITUDE])):
         present = " and ".join(f"'{n}'" for n in (PRESSURE, ALTITUDE) if n in seen)
         raise FlightCSVError(spath, header_lineno, f"column {present} has no readings (every cell is empty)")
@@ -564,6 +577,8 @@ def write_flight_csv(
                 raise ValueError(
                     f"write_flight_csv: '{PRESSURE}' outside 0 < p <= {PRESSURE_MAX_PA:.0f} Pa"
                 )
+        if name == ACCEL and arr.dtype.kind in "fiu" and (np.abs(arr.astype(float)) > ACCEL_MAX_MPS2).any():
+            raise ValueError(f"write_flight_csv: '{ACCEL}' beyond +-{ACCEL_MAX_MPS2:.0f} m/s^2")
         if arr.dtype.kind == "f":
             if decimals is None:
                 cells = ["" if math.isnan(x) else _format_general(x) for x in arr.tolist()]

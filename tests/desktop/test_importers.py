@@ -137,6 +137,17 @@ def test_pressure_not_in_pa_is_refused(tmp_path, head):
         read_flight(path)
 
 
+def test_an_implausible_acceleration_is_refused(tmp_path, head):
+    path = _export(tmp_path, head, "v6-EasyMega")
+    lines = _lines(path)
+    cells = lines[3].split(",")
+    cells[6] = " 1e30"  # acceleration, m/s^2
+    lines[3] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(FlightCSVError, match="'acceleration': 1e30 m/s\\^2 is implausible"):
+        read_flight(path)
+
+
 def test_altos_missing_value_is_an_empty_cell(tmp_path, head):
     path = _export(tmp_path, head, "v6-EasyMega")
     lines = _lines(path)
