@@ -128,6 +128,11 @@ def read_log(path):
         if not fl.block_crc_ok(block):
             problems.append(f"block {index} (seq {seq}): CRC mismatch, skipped")
             continue
+        if last_seq is not None and seq <= last_seq:
+            # blocks are numbered from 0 in each log: another log's blocks follow (files joined)
+            problems.append(f"block {index}: sequence {seq} after {last_seq}: another log starts here "
+                            "(files joined?); only the first is decoded")
+            break
         if last_seq is not None and seq != last_seq + 1:
             problems.append(f"block {index}: sequence {seq} after {last_seq}")
         last_seq = seq

@@ -124,6 +124,39 @@ def test_damaged_block_is_detected(tmp_path):
     assert any("sequence 2 after 0" in p for p in log.problems)
 
 
+def test_two_logs_joined_in_one_file_decode_as_the_first(tmp_path):
+    # two flight logs joined into one file (cat a.log b.log): the second's blocks, numbered from 0
+    # again, repeated the first's sample numbers, and the flight CSV writer stopped on a time that
+    # went backwards (a traceback). The decoder stops at the sequence that goes back, and says so
+    make_log(tmp_path / "flight.log")
+    data = (tmp_path / "flight.log").read_bytes()
+    (tmp_path / "joined.log").write_bytes(data + data)
+    full, log = read_log(tmp_path / "flight.log"), read_log(tmp_path / "joined.log")
+    assert np.array_equal(log.records, full.records)
+    assert any("another log starts here" in p for p in log.problems)
+    csv, cfg = write_csv(log, tmp_path / "joined.csv")
+    assert not check_replay(csv, cfg)[1]
+
+
+def test_the_check_of_a_damaged_log_stops_at_its_first_gap(tmp_path, capsys):
+    # a block lost in flight: past the gap the replay lacks the board's inputs and its filter
+    # parts from the board's, which is no difference of the replay's. The check compares the rows
+    # before the gap, and names the gap
+    from desktop.review.logcheck import run_check
+
+    make_log(tmp_path / "flight.log")
+    data = (tmp_path / "flight.log").read_bytes()
+    first = data.index(struct.pack("<I", fl.BLK_MAGIC))
+    cut = first + 5 * fl.BLOCK_SIZE  # the sixth block: in the boost
+    (tmp_path / "gap.log").write_bytes(data[:cut] + data[cut + fl.BLOCK_SIZE:])
+    log = read_log(tmp_path / "gap.log")
+    assert check_log(log, board_config(log))[1]  # past the gap the filter parts from the board's
+    assert run_check(tmp_path / "gap.log") == 0
+    lo = 5 * fl.BLOCK_RECORDS
+    out = capsys.readouterr().out
+    assert f"before the log's first gap (samples {lo}..{lo + fl.BLOCK_RECORDS - 1} missing" in out
+
+
 def test_flipped_bit_in_the_header_costs_only_the_header(tmp_path):
     make_log(tmp_path / "flight.log")
     full = read_log(tmp_path / "flight.log")
