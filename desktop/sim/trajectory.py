@@ -433,6 +433,12 @@ def simulate_rocket(
     mostly saves the fine-grid and record size.
     Raises TrajectoryError for a rocket that is unstable or does not leave the rail.
     """
+    if dof == 3 and spec.drogue is None:
+        # measured: the J360 example without its drogue ran for more than 10 minutes
+        raise TrajectoryError(
+            f"{spec.path}: 3 DOF needs a [drogue]: without one RocketPy's point mass falls nose-down "
+            "from apogee, where its weathercocking model turns stiff (minutes to hours); use 6 DOF"
+        )
     timing = {}
     t0 = time.perf_counter()
     rp = _rocketpy()

@@ -4,6 +4,7 @@ the axial specific force, events, the example rockets, and the `simulate` comman
 One RocketPy flight per scenario, shared through module-scoped fixtures (the import costs ~1 s).
 """
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -228,6 +229,14 @@ def test_unstable_rocket_is_rejected(tmp_path):
     path = zero_drag_files(tmp_path, cg=1.15)
     with pytest.raises(TrajectoryError, match="unstable: static margin"):
         simulate_rocket(load_rocket(path))
+
+
+def test_three_dof_without_a_drogue_is_refused():
+    # RocketPy's point mass falling nose-down from apogee turns its weathercocking model stiff: the
+    # J360 without its drogue ran for more than 10 minutes (6 DOF: 2 s)
+    spec = dataclasses.replace(load_rocket(ROCKETS / "j360_sport.toml"), drogue=None)
+    with pytest.raises(TrajectoryError, match=r"3 DOF needs a \[drogue\]"):
+        simulate_rocket(spec, dof=3)
 
 
 @pytest.mark.filterwarnings("ignore:The Sensor class")
