@@ -27,6 +27,10 @@ from shared.flight import (
     FlightComputer,
 )
 from shared.health import HEALTH_ACCEL_IMPLAUSIBLE
+from tests.shared.test_arbitration import MACH14_ROCKET
+from tests.support.fault_flight import MACH_ROCKET
+from tests.support.fault_flight import fly as fault_flight
+from tests.support.fault_flight import run as fault_run
 from tools.synthetic_flight import make_flight
 
 G = 9807
@@ -463,6 +467,25 @@ def test_single_barometer_glitches_are_not_pressure_steps(chance):
     assert abs(first(events, EV_LAUNCH) - 3000) <= 100  # 30 s of pad at 100 Hz; by height
     assert abs(first(events, EV_DROGUE) - apogee) <= 30
     assert abs(truth[first(events, EV_MAIN)] - 300000 - 500000) <= 20000
+
+
+@pytest.mark.parametrize("rocket, rate_hz, launch_height_m", [
+    (MACH_ROCKET, 10, 20), (MACH14_ROCKET, 100, 100), (MACH_ROCKET, 100, 100)],
+    ids=["mach2.4-10Hz", "mach1.65-launch-at-100m", "mach2.4-launch-at-100m"])
+def test_a_fast_climb_on_the_barometer_alone_is_not_a_pressure_step(rocket, rate_hz, launch_height_m):
+    # a barometer-only board launches by height. A boost that outruns the pad's filter (58 g read
+    # at 10 Hz, or a launch height set at 100 m) put the reading 50 m from the filter before the
+    # launch: a pressure step, the pad re-based (ground, filter at rest) again and again, and the
+    # board launched 10 to 18 s after ignition, in the coast, its ground 2.6 to 5.4 km up: the
+    # main fired at 2.9 to 5.7 km instead of 300 m
+    fl = fault_flight(rocket, rate_hz=rate_hz, after_apogee_s=400)
+    out = fault_run(fl, "baro", backup_drogue_s=round(fl.apogee_s + 3), main_deploy_m=300,
+                    launch_height_m=launch_height_m)
+    launch_s = next(t for t, ev, _mode, _flags in out.events if ev & EV_LAUNCH)
+    assert 0 < launch_s < 1.2
+    assert abs(out.fc.ground_alt_mm - fl.alt_mm[0]) < 1000
+    assert abs(out.early_s) < 0.1
+    assert abs(out.main_true_m - 300) < 20
 
 
 @pytest.mark.parametrize("seed", [2, 3, 4])
