@@ -140,16 +140,6 @@ def update_pad(pad, now_ms, alt_mm, accel_mmps2, have, kf):
             return have
         jump = alt_mm - (kf.alt_q4 >> 4)
         if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
-            vel = kf.vel_q4 >> 4
-            if not pad.has_accel and (jump > 0 and vel > _QUIET_SPEED_MMPS
-                                      or jump < 0 and vel < -_QUIET_SPEED_MMPS):
-                # on the barometer alone (its launch by height), the filter already moving toward
-                # the reading is a climb that outruns the pad's filter (a fast boost, a slow
-                # barometer, a launch height set high), not a step: the filter takes the reading's
-                # altitude and keeps its velocity, and the ground stays. (With an accelerometer its
-                # boost launches first, and a knock moves the filter: a step then is a step)
-                kf.set_altitude(alt_mm)
-                return have
             pad.errors |= ERR_PAD_BARO_STEP
             # a step stays: the reading before this one jumped too (a reading near the filter
             # sets ``_baro_ms``, a jump clears it). A single reading off and back is a glitch (a
