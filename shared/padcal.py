@@ -41,6 +41,13 @@ PAD_BARO_JUMP_MM = const(50000)
 _PUSH_MMPS2 = const(4903)
 _QUIET_CLIMB_MM = const(3000)
 _QUIET_SPEED_MMPS = const(3000)
+# A climb that outruns the pad's filter on the barometer alone (update_pad): the filter's upward
+# acceleration below 100 g (the hardest boosts reach 60 to 100 g; a pressure step read by the
+# filter, far more), and the reading within 1 km/s (mm per ms) of the last one, taken less than a
+# second before (which also keeps the product in 31 bits)
+_CLIMB_ACC_MAX_MMPS2 = const(980700)
+_CLIMB_MM_PER_MS = const(1000)
+_CLIMB_GAP_MAX_MS = const(1000)
 
 # Error flags (bits of FlightComputer.errors that this module owns).
 ERR_ORIENTATION = const(1)  # pad accelerometer reading is not about +1 g
@@ -140,6 +147,21 @@ def update_pad(pad, now_ms, alt_mm, accel_mmps2, have, kf):
             return have
         jump = alt_mm - (kf.alt_q4 >> 4)
         if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
+            acc = kf.acc_q4 >> 4
+            if (not pad.has_accel and jump > 0 and kf.vel_q4 >> 4 > _QUIET_SPEED_MMPS
+                    and _PUSH_MMPS2 < acc < _CLIMB_ACC_MAX_MMPS2
+                    and pad._baro_ms >= 0 and now_ms - pad._baro_ms < _CLIMB_GAP_MAX_MS
+                    and alt_mm - pad._baro_alt_mm <= (now_ms - pad._baro_ms) * _CLIMB_MM_PER_MS):
+                # on the barometer alone (its launch by height) a climb that outran the pad's
+                # filter, not a step: the filter climbs and accelerates upward as a boost does, and
+                # the reading moved on from the last one no faster than a rocket (a 200 m step in
+                # one reading is not a climb). It takes the reading's altitude and keeps its
+                # velocity; the ground stays. (With an accelerometer its boost launches first, and
+                # a knock moves the filter: a jump there stays a step or a glitch)
+                kf.set_altitude(alt_mm)
+                pad._baro_ms = now_ms
+                pad._baro_alt_mm = alt_mm
+                return have
             pad.errors |= ERR_PAD_BARO_STEP
             # a step stays: the reading before this one jumped too (a reading near the filter
             # sets ``_baro_ms``, a jump clears it). A single reading off and back is a glitch (a
