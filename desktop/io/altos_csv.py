@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from desktop.io.files import read_text
-from desktop.io.flightcsv import ACCEL_MAX_MPS2, FlightCSVError
+from desktop.io.flightcsv import ACCEL_EXPECTED, FlightCSVError, first_implausible_accel
 from shared.physics import G0_MPS2
 
 ALTOS_MISSING = 2147483647.0
@@ -181,12 +181,12 @@ def read_altos_csv(path):
     columns = {"time_s": time_s[keep], "pressure_pa": pressure}
     if "acceleration" in index:
         accel = column("acceleration") + G0_MPS2
-        bad = np.flatnonzero(np.abs(accel) > ACCEL_MAX_MPS2)
-        if bad.size:
-            i = keep[int(bad[0])]
+        bad = first_implausible_accel(accel)
+        if bad is not None:
+            i = keep[bad]
             text = rows[i][index["acceleration"]].strip()
             raise FlightCSVError(spath, row_lines[i], f"AltosUI column 'acceleration': {text} m/s^2 is "
-                                 f"implausible (expected at most {ACCEL_MAX_MPS2:.0f}, 2000 g, either sign)")
+                                 f"implausible ({ACCEL_EXPECTED})")
         columns["accel_mps2"] = accel
     for name, out in _CARRIED:
         if name == "state_name":

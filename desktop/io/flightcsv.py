@@ -31,6 +31,7 @@ import numpy as np
 
 from desktop.errors import DesktopError
 from desktop.io.files import decode_text, read_bytes
+from shared.physics import G0_MPS2
 
 __all__ = [
     "DuplicateTime",
@@ -41,6 +42,8 @@ __all__ = [
     "write_flight_csv",
     "PRESSURE_MAX_PA",
     "ACCEL_MAX_MPS2",
+    "ACCEL_EXPECTED",
+    "first_implausible_accel",
     "NO_MAIN",
 ]
 
@@ -49,6 +52,8 @@ PRESSURE_MAX_PA = 200000.0
 #: An accelerometer reading beyond this (m/s^2, 2000 g) is rejected as implausible: no part's
 #: register reports it (an ADXL375's 16-bit register at 49 mg per count reads at most 1606 g).
 ACCEL_MAX_MPS2 = 19613.3
+#: What an implausible reading's error message says is expected.
+ACCEL_EXPECTED = f"expected at most {ACCEL_MAX_MPS2:.0f}, {ACCEL_MAX_MPS2 / G0_MPS2:.0f} g, either sign"
 #: `# main_deploy_m: none`: the rocket has no main parachute (single deployment).
 NO_MAIN = "none"
 
@@ -258,6 +263,15 @@ def _extra_column(path: str, name: str, cells: list[str], lines: list[int]) -> n
     return arr
 
 
+def first_implausible_accel(accel_mps2):
+    """Index of the first accelerometer reading beyond ``ACCEL_MAX_MPS2`` of either sign (empty
+    cells, NaN, are not readings), or None; None for no column."""
+    if accel_mps2 is None:
+        return None
+    bad = np.flatnonzero(np.abs(np.asarray(accel_mps2, dtype=float)) > ACCEL_MAX_MPS2)
+    return int(bad[0]) if bad.size else None
+
+
 def read_flight_csv(path) -> FlightLog:
     """Read and validate a flight CSV. Raises FlightCSVError (one line, with line number) on any
     problem with the file; never drops a row silently (rows with a duplicated time are folded
@@ -414,15 +428,12 @@ def read_flight_csv(path) -> FlightLog:
                 spath, row_lines[i], f"column '{PRESSURE}': {cols[seen[PRESSURE]][i]} Pa is implausible "
                 f"(expected 0 < p <= {PRESSURE_MAX_PA:.0f})"
             )
-    a = sensors[ACCEL]
-    if a is not None:
-        bad = np.flatnonzero(np.abs(a) > ACCEL_MAX_MPS2)
-        if bad.size:
-            i = int(bad[0])
-            raise FlightCSVError(
-                spath, row_lines[i], f"column '{ACCEL}': {cols[seen[ACCEL]][i]} m/s^2 is implausible "
-                f"(expected at most {ACCEL_MAX_MPS2:.0f}, 2000 g, either sign)"
-            )
+    i = first_implausible_accel(sensors[ACCEL])
+    if i is not None:
+        raise FlightCSVError(
+            spath, row_lines[i],
+            f"column '{ACCEL}': {cols[seen[ACCEL]][i]} m/s^2 is implausible ({ACCEL_EXPECTED})",
+        )
     if not any(a is not None and np.isfinite(a).any() for a in (p, sensors[ALTITUDE])):
         present = " and ".join(f"'{n}'" for n in (PRESSURE, ALTITUDE) if n in seen)
         raise FlightCSVError(spath, header_lineno, f"column {present} has no readings (every cell is empty)")
@@ -577,7 +588,7 @@ def write_flight_csv(
                 raise ValueError(
                     f"write_flight_csv: '{PRESSURE}' outside 0 < p <= {PRESSURE_MAX_PA:.0f} Pa"
                 )
-        if name == ACCEL and arr.dtype.kind in "fiu" and (np.abs(arr.astype(float)) > ACCEL_MAX_MPS2).any():
+        if name == ACCEL and arr.dtype.kind in "fiu" and first_implausible_accel(arr) is not None:
             raise ValueError(f"write_flight_csv: '{ACCEL}' beyond +-{ACCEL_MAX_MPS2:.0f} m/s^2")
         if arr.dtype.kind == "f":
             if decimals is None:
