@@ -95,9 +95,9 @@ from shared import ballistic
 from shared.apogee import SeedRule, VelocityRule
 from shared.arbitration import Arbitration, add_baro, close_slot, integrate, judge_late, reads_slow
 from shared.attrs import make_room
-from shared.detector import HAVE_ACCEL, HAVE_BARO, MODEL_BIAS, MODEL_GRAVITY, MODEL_PLAIN, Detector
+from shared.detector import Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
-from shared.health import HEALTH_ACCEL_BAD, HEALTH_BARO_BAD, SensorHealth, check_health
+from shared.health import SensorHealth, check_health
 from shared.kalman import RATE_LIMIT_Q4
 from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
     ERR_BARO_ERRATIC,
@@ -109,6 +109,16 @@ from shared.padcal import (  # noqa: F401 (the error flags are re-exported)
     update_pad,
 )
 from shared.physics import G_MMPS2
+
+# Folded copies of other modules' constants (each _NAME is shared.*'s NAME; see shared/health.py):
+# shared.detector's reading masks and correction models, shared.health's HEALTH_*_BAD
+_HAVE_BARO = const(1)
+_HAVE_ACCEL = const(2)
+_MODEL_PLAIN = const(0)
+_MODEL_BIAS = const(1)
+_MODEL_GRAVITY = const(2)
+_HEALTH_BARO_BAD = const(3)
+_HEALTH_ACCEL_BAD = const(60)
 
 # States, in flight order.
 PAD = const(0)
@@ -184,6 +194,12 @@ _APOGEE_DECEL_MAX_MMPS2 = const(98067)
 # times the vertical share of the speed), so a coasting rocket's vertical acceleration there is
 # -g; a filter beyond -2 g is still ringing from its boost, not describing a coast (D16 rule 12)
 _BARO_APOGEE_DECEL_MAX_MMPS2 = const(19613)
+# An accelerometer whose readings in coast jump by more than this on average from one to the next
+# (``SensorHealth.acc_jitter``) reads noise of more than about 3.5 g rms, no drag: drag changes
+# by milli-g per reading, and the real logs' coasts jump by at most 2.5 g on average (319-005,
+# a tumbling rocket). Its readings above -0.5 g are left out as not drag, so its noise, no longer
+# zero-mean, would pull the velocity down by several g (D16 rule 15)
+_ACCEL_NOISY_MMPS2 = const(39227)
 
 # The filter's velocity is trusted as the start of an accelerometer-only bound only after the
 # barometer corrected it this long in coast: the bias model's settling (about 2.5 s) plus the
@@ -375,7 +391,7 @@ class FlightComputer:
         if health.changed:
             self.events |= EV_HEALTH
         clipped = health.clipped
-        measured_acc = have & HAVE_ACCEL  # a usable reading, before the phase's own choice
+        measured_acc = have & _HAVE_ACCEL  # a usable reading, before the phase's own choice
         accel_read = measured_acc or clipped  # (a clipped reading: alive, at full scale)
         if clipped:
             self.errors |= ERR_ACCEL_CLIPPED
@@ -404,7 +420,7 @@ class FlightComputer:
             self.errors = (self.errors & ~PAD_ERRORS) | pad.errors
             self.ground_alt_mm = pad.ground_alt_mm
             self.one_g_mmps2 = pad.one_g_mmps2
-            if (-_HELD_NEAR_ZERO_MMPS2 < accel_mmps2 < _HELD_NEAR_ZERO_MMPS2 and have & HAVE_ACCEL
+            if (-_HELD_NEAR_ZERO_MMPS2 < accel_mmps2 < _HELD_NEAR_ZERO_MMPS2 and have & _HAVE_ACCEL
                     and pad.upright and health.accel_held_near_zero_ms(
                         now_ms, _HELD_NEAR_ZERO_MMPS2) >= cfg.accel_stuck_ms):
                 # D16 rule 14 on the pad: upright (its orientation checked) an accelerometer reads
@@ -414,10 +430,17 @@ class FlightComputer:
                 # judges its orientation by it (its zeros in the pad's averages would refuse the
                 # launch). A board never read upright (a part reading zeros from power-on, a
                 # board lying down) keeps its launch refused
-                health.retire_accel()
+                health.retire_accel(False)
                 self.arb.stop()
                 pad.has_accel = False
         acc_kin = accel_mmps2 - self.one_g_mmps2
+        coasting = state == FAST or state == COAST
+        if (coasting and health.acc_jitter > _ACCEL_NOISY_MMPS2 and health.accel_ok
+                and now_ms - self.burnout_ms >= _GATE_START_MS):
+            # D16 rule 15: past the motor's tail-off, an accelerometer that jumps like noise of
+            # several g reads no drag; the board flies on as one without it (as rule 14)
+            _retire_accel(self, now_ms, True)
+            have &= _HAVE_BARO
         have = _arbitrate(self, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped)
         mode = self.mode
         prior_vel_mmps = kf.vel_q4 >> 4
@@ -425,7 +448,7 @@ class FlightComputer:
             _set_baro_weight(kf, cfg, state, mode, prior_vel_mmps)
         else:  # (_set_baro_weight's first test: below the lockout speed, full weight)
             kf.baro_weight_256 = 256
-        if have & HAVE_BARO and self._reanchor:
+        if have & _HAVE_BARO and self._reanchor:
             # after a reset, or the barometer back from an exclusion: its altitude, not its path
             self._reanchor = False
             kf.set_altitude(alt_mm)
@@ -436,9 +459,8 @@ class FlightComputer:
             self.proof_ref_baro_mm = alt_mm - self.ground_alt_mm
             self.proof_ref_acc_mm = self.acc_h_mm
         resuming = now_ms < self.settle_until_ms
-        coasting = state == FAST or state == COAST
         if coasting and acc_kin > _NOT_DRAG_MMPS2:
-            have &= HAVE_BARO  # not drag: the reading is not used
+            have &= _HAVE_BARO  # not drag: the reading is not used
         # the detector's configuration for the phase, set when the phase changes: the state, a
         # resumed filter settling, the first 0.5 s after burnout (the motor's tail-off is a real,
         # fast change: no gates yet)
@@ -454,7 +476,7 @@ class FlightComputer:
         if state >= DROGUE or resuming:
             # under a parachute the orientation is unknown; a resumed filter follows the
             # barometer alone (see restore_state)
-            have &= HAVE_BARO
+            have &= _HAVE_BARO
         # the correction model (tools/gen_gains.py explains the physics and the numbers; written
         # out: every coast sample). In coast the accelerometer's bias estimated, and below
         # _LATE_COAST_MMPS the acceleration taken as -g, which needs the barometer (one excluded by
@@ -463,11 +485,11 @@ class FlightComputer:
         # through Mach would carry the lie into the velocity. After a reset the plain model: the
         # saved velocity may be old, the filter re-learns it.
         if state != COAST or resuming:
-            det.model = MODEL_PLAIN
+            det.model = _MODEL_PLAIN
         elif -_LATE_COAST_MMPS < prior_vel_mmps < _LATE_COAST_MMPS and mode & MODE_BARO:
-            det.model = MODEL_GRAVITY
+            det.model = _MODEL_GRAVITY
         else:
-            det.model = MODEL_BIAS
+            det.model = _MODEL_BIAS
         if dt_us:
             if state == COAST:
                 bal = self.arb.ballistic
@@ -478,7 +500,7 @@ class FlightComputer:
                 enabled = _apogee_enabled(self, cfg, now_ms) and not bal.holds
             else:
                 enabled = False
-            if cfg.baro_lag_ms and have & HAVE_BARO:
+            if cfg.baro_lag_ms and have & _HAVE_BARO:
                 # the reading shows the altitude of baro_lag_ms ago: h(t) ~ h(t - lag) + v lag
                 # (velocity in cm/s so that the product stays in 31 bits)
                 alt_mm += (self.vel_mmps // 10) * cfg.baro_lag_ms // 100
@@ -519,7 +541,7 @@ class FlightComputer:
         vel_mmps = kf.vel_q4 >> 4
         self.agl_mm = agl_mm
         self.vel_mmps = vel_mmps
-        if have & HAVE_BARO:
+        if have & _HAVE_BARO:
             self.baro_agl_mm = alt_mm - ground_mm
             if (state == DROGUE and health.baro_moved
                     and -_STEADY_ACC_MMPS2 < kf.acc_q4 >> 4 < _STEADY_ACC_MMPS2
@@ -774,7 +796,7 @@ def _update_averages(fc, cfg, state, kf, dt_ms, alt_mm, have, acc_kin, accel_ms)
     elif step < -_EMA_STEP_LIMIT:
         step = -_EMA_STEP_LIMIT
     fc.acc_avg_q4 = avg + step * (dt_ms if dt_ms < _DECEL_TAU_MS else _DECEL_TAU_MS) // _DECEL_TAU_MS
-    if have & HAVE_BARO:
+    if have & _HAVE_BARO:
         resid_m = (alt_mm - (kf.alt_q4 >> 4)) // 1000
         if resid_m < 0:
             resid_m = -resid_m
@@ -805,7 +827,7 @@ def _update_boost(fc, cfg, accel_interval_us, accel_period_us, acc_kin, have, cl
     boosting one adds the time between them, the first of a run one accelerometer period (a long
     silence before it is not known to be boost); a sample without an accelerometer reading leaves
     it as it is."""
-    if not (have & HAVE_ACCEL or clipped):
+    if not (have & _HAVE_ACCEL or clipped):
         return
     if acc_kin > cfg.launch_accel_mmps2 or clipped and acc_kin > 0:
         boost_ms = fc.boost_ms
@@ -1119,10 +1141,10 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
     # reading, ``integrate`` restarts it as it adds the reading)
     restart = (state == PAD and (arb.margin_mmps or not arb.valid) and cfg.has_accel
                and not (acc_kin > cfg.launch_accel_mmps2 or clipped))
-    if restart and (flags & HEALTH_ACCEL_BAD or not have & HAVE_ACCEL):
+    if restart and (flags & _HEALTH_ACCEL_BAD or not have & _HAVE_ACCEL):
         arb.start(0)
         restart = False
-    if flags & HEALTH_ACCEL_BAD and arb.valid:
+    if flags & _HEALTH_ACCEL_BAD and arb.valid:
         arb.stop()  # its integral no longer bounds anything, for the rest of the flight
         if fc.launched:
             # nor do its proof integrals, which skipped the readings judged bad: a proof still
@@ -1131,7 +1153,7 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
     valid = arb.valid or restart
     if not (valid and state < DROGUE):  # the track serves the ascent's decisions
         fc._arb_ms = now_ms
-    elif have & HAVE_ACCEL or clipped:
+    elif have & _HAVE_ACCEL or clipped:
         fc._arb_ms = now_ms
         if coasting and acc_kin > _NOT_DRAG_MMPS2 and not clipped:
             # not drag: a shock, an ejection, a tumble, or thrust (see step): the track holds, its
@@ -1144,7 +1166,7 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         arb.integrate_missing(dt_ms, G_MMPS2)  # no usable reading for that long: unknown by 1 g x dt
     mode = 0
     if cfg.has_baro:
-        if add_baro(arb, now_ms, alt_mm, have & HAVE_BARO):
+        if add_baro(arb, now_ms, alt_mm, have & _HAVE_BARO):
             kf = fc.kf
             # the judgement is left to the next sample (before the track changes, or to a false
             # launch's test), and the window's close costs 9k fewer instructions (the slowest
@@ -1170,12 +1192,12 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
                 # filter, whose velocity it carried, takes the barometer's rate (and at the next
                 # reading its altitude), and waits baro_settle_s as one that was far off the
                 # barometer (D16 rule 14)
-                _retire_accel(fc, now_ms)
+                _retire_accel(fc, now_ms, False)
                 valid = False
-                have &= HAVE_BARO
-        if not flags & HEALTH_BARO_BAD:
+                have &= _HAVE_BARO
+        if not flags & _HEALTH_BARO_BAD:
             mode = MODE_BARO
-    if cfg.has_accel and not flags & HEALTH_ACCEL_BAD and (valid or not fc.launched):
+    if cfg.has_accel and not flags & _HEALTH_ACCEL_BAD and (valid or not fc.launched):
         mode |= MODE_ACCEL
     # (in boost too while the track bounds the velocity from both sides: a clipped part's
     # track under-reads, and the barometer must be able to end a boost that a part stuck at full
@@ -1225,17 +1247,18 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         fc.mode = mode
         fc.events |= EV_MODE
     if not mode & MODE_BARO:
-        have &= HAVE_ACCEL
+        have &= _HAVE_ACCEL
     return have
 
 
-def _retire_accel(fc, now_ms):
-    """D16 rule 14 (see _arbitrate): the accelerometer retired; the filter takes the barometer's
-    window rate, and waits as one that was far off the barometer."""
+def _retire_accel(fc, now_ms, noisy):
+    """D16 rules 14 and 15 (see _arbitrate and step): the accelerometer retired (``noisy``: by
+    rule 15, see SensorHealth.retire_accel); the filter takes the barometer's window rate, and
+    waits as one that was far off the barometer."""
     arb = fc.arb
     if arb.judge_due:
         judge_late(arb)  # the newest window's rate
-    fc.health.retire_accel()
+    fc.health.retire_accel(noisy)
     arb.stop()
     fc.kf.vel_q4 = arb.baro_rate_mmps << 4
     fc.off_baro_ms = now_ms

@@ -14,7 +14,9 @@ for ``baro_stuck_s`` in flight; for the accelerometer ``accel_stuck_s`` while it
 1 g, where noise and change are certain; a reading at the configured full scale, or held at the
 largest of the flight, is clipped, and frozen only once held ``max_boost_s``: no boost that clips
 lasts longer) and single readings that are impossible (one that moved faster than
-``baro_rate_max_mps`` from the previous reading); and last counts how long each sensor has gone
+``baro_rate_max_mps`` from the previous reading); it keeps the accelerometer's jumpiness
+(``acc_jitter``, the mean change from one reading to the next), by which shared/flight.py retires
+a part that reads noise in coast (D16 rule 15); and last counts how long each sensor has gone
 without a usable reading: one without a usable reading for ``sensor_lost_s`` is lost
 (``baro_ok`` / ``accel_ok`` False), and the proof of flight falls back to the other sensor's
 (shared/flight.py). ``flags`` holds the HEALTH_* bits; a frozen or lost sensor's readings are not
@@ -29,7 +31,12 @@ except ImportError:
 
 from shared.altitude import pressure_to_alt_mm
 from shared.altitude_table import P_MAX_Q4, P_MIN_Q4
-from shared.detector import HAVE_ACCEL, HAVE_BARO
+
+# shared.detector's HAVE_BARO and HAVE_ACCEL, folded here: on MicroPython an imported constant is a
+# global, looked up at three times a local's cost, and check_health tests them about eight times
+# a sample (tests/shared/test_flight.py checks that the copies agree)
+_HAVE_BARO = const(1)
+_HAVE_ACCEL = const(2)
 
 HEALTH_BARO_STUCK = const(1)
 HEALTH_BARO_LOST = const(2)
@@ -37,9 +44,14 @@ HEALTH_ACCEL_STUCK = const(4)
 HEALTH_ACCEL_LOST = const(8)
 # the barometer contradicted it beyond any barometric error (``retire_accel``): for the flight
 HEALTH_ACCEL_IMPLAUSIBLE = const(16)
+# its readings in coast jumped from one to the next like noise of several g (``acc_jitter``,
+# shared/flight.py): for the flight
+HEALTH_ACCEL_NOISY = const(32)
 HEALTH_BARO_BAD = const(3)  # HEALTH_BARO_STUCK | HEALTH_BARO_LOST
-HEALTH_ACCEL_BAD = const(28)  # HEALTH_ACCEL_STUCK | HEALTH_ACCEL_LOST | HEALTH_ACCEL_IMPLAUSIBLE
-HEALTH_NAMES = ("baro frozen", "baro lost", "accel frozen", "accel lost", "accel implausible")
+# HEALTH_ACCEL_STUCK | HEALTH_ACCEL_LOST | HEALTH_ACCEL_IMPLAUSIBLE | HEALTH_ACCEL_NOISY
+HEALTH_ACCEL_BAD = const(60)
+HEALTH_NAMES = ("baro frozen", "baro lost", "accel frozen", "accel lost", "accel implausible",
+                "accel noisy")
 
 # The ends of the altitude table: shared.altitude clamps any pressure outside it to these.
 ALT_TOP_MM = pressure_to_alt_mm(P_MIN_Q4)
@@ -62,6 +74,12 @@ _CLIP_HOLD_N = const(2)  # held readings after the one that set the run: three e
 # of noise fired drogues 7 to 15 s early)
 _ERRATIC_RUN_MS = const(200)
 _ERRATIC_HOLD_MS = const(2000)
+# The accelerometer's jumpiness, ``acc_jitter``: the mean change from one reading to the next,
+# each change counted to at most _JUMP_CAP_MMPS2 (8 g: a glitch or a shock moves it little), an
+# exponential average over 2**_JUMP_AVG_SHIFT readings (0.32 s at 100 Hz). Zero-mean noise of
+# sigma gives 1.13 sigma (less by the cap); drag changes by a few mg per reading.
+_JUMP_CAP_MMPS2 = const(78456)
+_JUMP_AVG_SHIFT = const(5)
 
 
 class SensorHealth:
@@ -80,7 +98,7 @@ class SensorHealth:
         self.baro_ok = config.has_baro  # the board has it and it is not lost
         self.accel_ok = config.has_accel
         # the readings of the sensors the board has (one operation per sample in check_health)
-        self._board_mask = (HAVE_BARO if config.has_baro else 0) | (HAVE_ACCEL if config.has_accel else 0)
+        self._board_mask = (_HAVE_BARO if config.has_baro else 0) | (_HAVE_ACCEL if config.has_accel else 0)
 
     def start_watch(self, config):
         """Thresholds and state of ``check_health``'s judgement over time (called once, from the
@@ -112,7 +130,8 @@ class SensorHealth:
         # run it counts) and its held readings so far
         self._clip_run_ms = -1
         self._clip_held_n = 0
-        self.accel_retired = False  # see retire_accel
+        self.accel_retired = 0  # see retire_accel: the HEALTH_ACCEL_* flag it was retired for
+        self.acc_jitter = 0  # mm/s^2, see _JUMP_CAP_MMPS2
 
     def accel_held_near_zero_ms(self, now_ms, near_mmps2):
         """How long the accelerometer has read one value within ``near_mmps2`` of zero (0: it
@@ -122,13 +141,15 @@ class SensorHealth:
             return now_ms - self._acc_change_ms
         return 0
 
-    def retire_accel(self):
-        """The barometer contradicted the accelerometer beyond any barometric error (docs/DESIGN.md
-        D16 rule 14): from the next sample on, the board flies as one without an accelerometer
-        (its readings unused, ``accel_ok`` False, HEALTH_ACCEL_IMPLAUSIBLE in ``flags``)."""
+    def retire_accel(self, noisy):
+        """The accelerometer retired for the flight: the barometer contradicted it beyond any
+        barometric error (HEALTH_ACCEL_IMPLAUSIBLE, docs/DESIGN.md D16 rule 14), or ``noisy``: it
+        reads noise (HEALTH_ACCEL_NOISY, rule 15). From the next sample on, the board flies as
+        one without an accelerometer (its readings unused, ``accel_ok`` False, the flag in
+        ``flags``)."""
         self.accel_ok = False
-        self._board_mask &= HAVE_BARO
-        self.accel_retired = True
+        self._board_mask &= _HAVE_BARO
+        self.accel_retired = HEALTH_ACCEL_NOISY if noisy else HEALTH_ACCEL_IMPLAUSIBLE
 
 
 def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
@@ -143,13 +164,13 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
     # reading at the accelerometer's full scale
     board = health._board_mask
     have &= board
-    if have & HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):
-        have &= HAVE_ACCEL  # an out-of-range pressure is not a reading
+    if have & _HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):
+        have &= _HAVE_ACCEL  # an out-of-range pressure is not a reading
         health.baro_out_of_range += 1
     limit = health.accel_limit_mmps2
     clipped = False
-    if have & HAVE_ACCEL and limit and (accel_mmps2 >= limit or accel_mmps2 <= -limit):
-        have &= HAVE_BARO  # a clipped reading under-reads: use the barometer alone
+    if have & _HAVE_ACCEL and limit and (accel_mmps2 >= limit or accel_mmps2 <= -limit):
+        have &= _HAVE_BARO  # a clipped reading under-reads: use the barometer alone
         health.accel_clipped += 1
         clipped = True
     # over time: frozen runs, impossible steps, a peak held at full scale (in flight only,
@@ -158,10 +179,10 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
     # are at least 0.1 s, so its test is skipped)
     flags = 0
     moved = False
-    has_baro = board & HAVE_BARO
+    has_baro = board & _HAVE_BARO
     if has_baro:
         seen = health._baro_seen
-        if have & HAVE_BARO:
+        if have & _HAVE_BARO:
             step = alt_mm - health._baro_last
             if step < 0:
                 step = -step
@@ -171,7 +192,7 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
                 since_ms = now_ms - health._baro_fresh_ms
                 if (since_ms <= _RATE_DT_MAX_MS
                         and step > health.baro_rate_max_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM):
-                    have &= HAVE_ACCEL
+                    have &= _HAVE_ACCEL
                     health.baro_spikes += 1
                     # impossible readings for _ERRATIC_RUN_MS in a row are a broken part, and one
                     # of its readings that passes by chance is no measurement either: none is
@@ -189,22 +210,29 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
             if not seen:
                 health._baro_seen = seen = True
             if now_ms < health._baro_erratic_ms:
-                have &= HAVE_ACCEL
+                have &= _HAVE_ACCEL
         if (not moved and in_flight and seen
                 and now_ms - health._baro_run_ms >= health.baro_stuck_ms):
             flags = HEALTH_BARO_STUCK
-            have &= HAVE_ACCEL
+            have &= _HAVE_ACCEL
     health.baro_moved = moved
-    has_accel = board & HAVE_ACCEL
+    has_accel = board & _HAVE_ACCEL
     if has_accel:
         seen = health._acc_seen
         run_now = False
-        if have & HAVE_ACCEL:
+        if have & _HAVE_ACCEL:
             size = accel_mmps2 if accel_mmps2 >= 0 else -accel_mmps2
             peak = health._acc_peak
             if in_flight and size > peak:
                 health._acc_peak = peak = size
-            held = accel_mmps2 == health._acc_last and seen
+            jump = accel_mmps2 - health._acc_last
+            held = not jump and seen
+            if jump < 0:
+                jump = -jump
+            if jump > _JUMP_CAP_MMPS2:
+                jump = _JUMP_CAP_MMPS2
+            avg = health.acc_jitter
+            health.acc_jitter = avg + ((jump - avg) >> _JUMP_AVG_SHIFT)
             if not held:
                 health._acc_change_ms = now_ms
             if (in_flight and held and size >= peak and size > _ONE_G_MMPS2
@@ -220,7 +248,7 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
                 health._clip_held_n += 1
                 if (health._clip_held_n >= _CLIP_HOLD_N
                         and now_ms - health._acc_change_ms >= _CLIP_HOLD_MS):
-                    have &= HAVE_BARO
+                    have &= _HAVE_BARO
                     health.accel_clipped += 1
                     clipped = True
             elif not held or size < _ONE_G_MMPS2:
@@ -234,7 +262,7 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
                 and now_ms - health._acc_run_ms
                 >= (health.max_boost_ms if clipped else health.accel_stuck_ms)):
             flags |= HEALTH_ACCEL_STUCK
-            have &= HAVE_BARO
+            have &= _HAVE_BARO
             clipped = False  # frozen, not clipped: not a reading at all
     health.clipped = clipped
     # lost: the time without a usable reading (a frozen sensor's readings are not usable
@@ -242,7 +270,7 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
     # (each value stored only when it changes: a store costs more than the test)
     lost_ms = health.lost_ms
     age = health.baro_age_ms
-    if have & HAVE_BARO:
+    if have & _HAVE_BARO:
         if age:
             health.baro_age_ms = age = 0
     elif age < _AGE_LIMIT_MS - dt_ms:
@@ -255,7 +283,7 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
             flags |= HEALTH_BARO_LOST
     health.baro_ok = ok
     age = health.accel_age_ms
-    if have & HAVE_ACCEL or clipped:  # clipped: alive, at full scale
+    if have & _HAVE_ACCEL or clipped:  # clipped: alive, at full scale
         if age:
             health.accel_age_ms = age = 0
     elif age < _AGE_LIMIT_MS - dt_ms:
@@ -266,8 +294,8 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
         ok = age < lost_ms
         if not ok:
             flags |= HEALTH_ACCEL_LOST
-    elif health.accel_retired:
-        flags |= HEALTH_ACCEL_IMPLAUSIBLE
+    else:
+        flags |= health.accel_retired
     health.accel_ok = ok
     changed = flags != health.flags
     health.changed = changed

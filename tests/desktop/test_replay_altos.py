@@ -71,6 +71,13 @@ def test_no_firing_before_burnout_and_main_at_configured_altitude(results):
             assert abs(baro_m - 250) <= 10, (name, baro_m)
 
 
+def test_no_real_flight_reads_as_a_noisy_accelerometer(results):
+    # D16 rule 15 retires an accelerometer whose coast readings jump by 4 g on average: these
+    # flights' coasts, judged from 0.5 s after burnout, jump by at most 2.5 g (319-005, tumbling)
+    for name, (_log, res) in results.items():
+        assert not [e for e in res.events if e.event == "health" and "accel noisy" in e.detail], name
+
+
 def test_replay_is_deterministic(results):
     name = "2012-09-29-serial-341-flight-005.csv"
     log, res = results[name]

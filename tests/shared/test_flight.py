@@ -33,6 +33,26 @@ ALL_ON = {"backup_drogue_s": 20, "apogee_delay_s": 1, "apogee_lockout_s": 0, "ma
           "backup_drogue_delay_s": 1, "backup_main_m": 200}
 
 
+def test_the_folded_copies_of_other_modules_constants_agree():
+    # shared/flight.py and shared/health.py fold their own _NAME copies of other modules' NAME
+    # (on MicroPython an imported constant is a global lookup): each copy must equal its original
+    import importlib
+    import re
+    from pathlib import Path
+
+    shared = Path(__file__).resolve().parents[2] / "shared"
+    modules = {path.stem: importlib.import_module("shared." + path.stem) for path in shared.glob("*.py")}
+    copies = 0
+    for stem, module in modules.items():
+        for name in re.findall(r"^_([A-Z][A-Z0-9_]*) = const\(", (shared / (stem + ".py")).read_text(), re.M):
+            originals = [other for other_stem, other in modules.items()
+                         if other_stem != stem and isinstance(getattr(other, name, None), int)]
+            for other in originals:
+                assert getattr(module, "_" + name) == getattr(other, name), (stem, name, other.__name__)
+                copies += 1
+    assert copies >= 9  # flight: the two masks, three models, two health masks; health: the masks
+
+
 def run(dts, alts, accs, have, **config):
     """Step a FlightComputer over integer arrays; returns (fc, events list, pyro-on samples)."""
     fc = FlightComputer(load_config(config))

@@ -158,7 +158,9 @@ def _probes():
                           ("glitches", seed, 0.01, 100000)))
             cases.append((name, "stalls of 50-300 ms, seed %d" % seed, ("stalls", seed, 0.01, 5, 30)))
             cases.append((name, "stalls of 0.5-1 s, seed %d" % seed, ("stalls", seed, 0.002, 50, 100)))
-        cases.append((name, "accel vibrating at 4 g rms from burnout", ("vibration", burn, 4.0)))
+        for rms_g in (4.0, 8.0):
+            cases.append((name, "accel vibrating at %.0f g rms from burnout" % rms_g,
+                          ("vibration", burn, rms_g)))
         for at_s in (burn + 1.0, burn + 5.0):
             for step in (3.0, -3.0, 6.0, -6.0):
                 cases.append((name, "accel bias step %+.0f m/s^2 at %.1f s" % (step, at_s),
