@@ -279,7 +279,7 @@ MUTANTS = [
     ("accel-only-apogee-against-live-baro", FLIGHT,
      "            and not (fc.baro_excluded and arb.parted_beyond_lie(",
      "            and not (False and arb.parted_beyond_lie(",
-     ARB_TESTS + "::test_an_accelerometer_glitching_to_full_scale_in_the_boost_does_not_decide_alone"),
+     ARB_TESTS + "::test_an_accelerometer_reading_twice_the_truth_in_coast_does_not_decide_alone"),
     ("accel-only-apogee-needs-the-filter", FLIGHT,
      "            and fc.kf.vel_q4 <= 0\n",
      "",
