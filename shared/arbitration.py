@@ -13,10 +13,10 @@ the true kinematic acceleration: both errors are within (1 / cos tilt - 1) of th
 (b + (1 / cos tilt - 1) max(|specific force|, |kinematic acceleration|)) dt, and the true vertical
 velocity lies within ``vel_mmps`` +- ``margin_mmps``. A clipped reading under-reads: the lower
 bound stays valid, the upper one does not (``upper_valid``). A coasting rocket's reading left out
-(beyond drag: a shock, a tumble, or a motor lighting before the boost rule takes it) holds the
-velocity; the margin grows 1 g x dt, and the upper bound alone by the reading beyond that
-(``upper_extra_mmps``, docs/DESIGN.md D19). A frozen or lost accelerometer (``shared/health.py``)
-ends the track (``valid``).
+(beyond drag: a shock, a tumble, or a motor lighting before the boost rule takes it; or outside
+the filter's gate, docs/DESIGN.md D16 rule 16) holds the velocity; the margin grows 1 g x dt,
+and the upper bound alone by the reading beyond that (``upper_extra_mmps``, docs/DESIGN.md D19).
+A frozen or lost accelerometer (``shared/health.py``) ends the track (``valid``).
 
 Barometer consistency. Readings are averaged in slots of ``_SLOT_MS``; the climb rate between
 the newest slot and the one ``_WINDOW_SLOTS`` earlier is the mean vertical velocity over that
@@ -34,7 +34,6 @@ except ImportError:
     def const(x):
         return x
 
-from shared.physics import G_MMPS2
 
 _SLOT_MS = const(50)  # averaging slot: 5 readings at 100 Hz, 1 at 20 Hz
 _WINDOW_SLOTS = const(10)  # 0.5 s window: a 200 m transient reads as 400 m/s, 6 m noise as ~8 m/s
@@ -67,6 +66,11 @@ _NO_DIFF = const(-0x3FFFFFFF)  # a slot whose window was not judged
 # 300 s and 3 km/s, so that their product (mm) stays inside 31 bits
 _PART_DT_LIMIT_MS = const(300000)
 _PART_VEL_LIMIT_MPS = const(3000)
+
+
+# shared.physics's G_MMPS2, folded here: on MicroPython an imported constant is a global
+# (tests/shared/test_flight.py checks that the copy agrees)
+_G_MMPS2 = const(9807)
 
 
 def _clamp(x, limit):
@@ -164,11 +168,11 @@ class Arbitration:
             return
         if dt_ms > _DT_LIMIT_MS:
             dt_ms = _DT_LIMIT_MS
-        self.margin_mmps = _clamp(self.margin_mmps + G_MMPS2 * dt_ms // 1000 + 1, _VEL_LIMIT_MMPS)
-        if acc_mmps2 > G_MMPS2:
+        self.margin_mmps = _clamp(self.margin_mmps + _G_MMPS2 * dt_ms // 1000 + 1, _VEL_LIMIT_MMPS)
+        if acc_mmps2 > _G_MMPS2:
             if acc_mmps2 > _ACC_LIMIT:
                 acc_mmps2 = _ACC_LIMIT
-            self.upper_extra_mmps = _clamp(self.upper_extra_mmps + (acc_mmps2 - G_MMPS2) * dt_ms // 1000 + 1,
+            self.upper_extra_mmps = _clamp(self.upper_extra_mmps + (acc_mmps2 - _G_MMPS2) * dt_ms // 1000 + 1,
                                            _VEL_LIMIT_MMPS)
 
     def baro_agrees(self):

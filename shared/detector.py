@@ -24,7 +24,11 @@ except ImportError:
     def const(x):
         return x
 
-from shared.kalman import MEAS_LIMIT_MM, RATE_LIMIT_Q4, Kalman
+from shared.kalman import RATE_LIMIT_Q4, Kalman
+
+# shared.kalman's MEAS_LIMIT_MM, folded here: on MicroPython an imported constant is a global, and
+# the gates test it on every reading (tests/shared/test_flight.py checks that the copy agrees)
+_MEAS_LIMIT_MM = const(0x1FFFFFF)
 
 HAVE_BARO = const(1)
 HAVE_ACCEL = const(2)
@@ -178,10 +182,10 @@ class Detector:
             gate = self.gate_alt_mm
             if gate:
                 e = alt_mm
-                if e > MEAS_LIMIT_MM:
-                    e = MEAS_LIMIT_MM
-                elif e < -MEAS_LIMIT_MM:
-                    e = -MEAS_LIMIT_MM
+                if e > _MEAS_LIMIT_MM:
+                    e = _MEAS_LIMIT_MM
+                elif e < -_MEAS_LIMIT_MM:
+                    e = -_MEAS_LIMIT_MM
                 e -= kf.alt_q4 >> 4
                 if -gate <= e <= gate and self.inside_us[0] < 0:
                     self.outlier_us[0] = 0
@@ -191,10 +195,10 @@ class Detector:
             gate = self.gate_acc_mmps2
             if gate:
                 e = acc_mmps2
-                if e > MEAS_LIMIT_MM:
-                    e = MEAS_LIMIT_MM
-                elif e < -MEAS_LIMIT_MM:
-                    e = -MEAS_LIMIT_MM
+                if e > _MEAS_LIMIT_MM:
+                    e = _MEAS_LIMIT_MM
+                elif e < -_MEAS_LIMIT_MM:
+                    e = -_MEAS_LIMIT_MM
                 e -= kf.acc_q4 >> 4
                 if -gate <= e <= gate and self.inside_us[1] < 0:
                     self.outlier_us[1] = 0

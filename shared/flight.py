@@ -176,9 +176,9 @@ _GATE_START_MS = const(500)
 # After burnout drag only decelerates: a kinematic acceleration above this (an axial specific force
 # above +0.5 g) is the motor's tail-off, an ejection charge, a shock, a tumbling rocket, or a motor
 # lighting in coast (staging, an air-start: the boost rule takes the flight back to boost once the
-# thrust is sustained). (Computed once here: on MicroPython an imported constant is a global, not
-# folded.)
-_NOT_DRAG_MMPS2 = -G_MMPS2 // 2
+# thrust is sustained). (-G_MMPS2 // 2, written out: on MicroPython an imported constant is a
+# global, not folded; tests/shared/test_flight.py checks it)
+_NOT_DRAG_MMPS2 = const(-4904)
 # The detector's phase (``_det_phase``): the state (0 to 6) plus one of these flags
 _PHASE_RESUMING = const(8)  # a resumed filter settling
 _PHASE_TAIL_OFF = const(16)  # within _GATE_START_MS of burnout
@@ -1155,9 +1155,14 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         fc._arb_ms = now_ms
     elif have & _HAVE_ACCEL or clipped:
         fc._arb_ms = now_ms
-        if coasting and acc_kin > _NOT_DRAG_MMPS2 and not clipped:
-            # not drag: a shock, an ejection, a tumble, or thrust (see step): the track holds, its
-            # margin covers the reading
+        left_out = False
+        if coasting and not clipped:
+            # not drag (a shock, an ejection, a tumble, or thrust: see step), or outside the
+            # filter's gate (D16 rule 16): the track holds, its margin covers the reading
+            gate = fc.det.gate_acc_mmps2
+            left_out = acc_kin > _NOT_DRAG_MMPS2 or gate and not (
+                -gate <= acc_kin - (fc.kf.acc_q4 >> 4) <= gate)
+        if left_out:
             arb.integrate_missing(dt_ms, acc_kin)
         else:
             integrate(arb, dt_ms, acc_kin, accel_mmps2, clipped, restart)

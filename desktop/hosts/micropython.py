@@ -41,17 +41,18 @@ def find_unix_binary():
 
 
 def _run_unix(code, root, timeout_s):
-    with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as f:
-        f.write(code)
-        path = f.name
-    try:
+    # the script in a directory of its own: MicroPython puts the script's directory first on its
+    # path, and a stray os.py or time.py beside it in the system's temp directory would shadow the
+    # modules the code imports
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "script.py")
+        with open(path, "w") as f:
+            f.write(code)
         env = dict(os.environ, MICROPYPATH=str(root))
         proc = subprocess.run(
             [find_unix_binary(), "-X", "heapsize=8M", path],
             capture_output=True, text=True, timeout=timeout_s, env=env, cwd=str(root),
         )
-    finally:
-        os.unlink(path)
     if proc.returncode != 0:
         raise MicroPythonError("unix port failed:\n" + proc.stdout[-2000:] + proc.stderr[-4000:])
     return proc.stdout

@@ -50,7 +50,12 @@ def test_the_folded_copies_of_other_modules_constants_agree():
             for other in originals:
                 assert getattr(module, "_" + name) == getattr(other, name), (stem, name, other.__name__)
                 copies += 1
-    assert copies >= 9  # flight: the two masks, three models, two health masks; health: the masks
+    # flight: the two masks, three models, two health masks; health: the masks; the detector:
+    # the measurement limit; the arbitration: g
+    assert copies >= 11
+    from shared.physics import G_MMPS2
+
+    assert modules["flight"]._NOT_DRAG_MMPS2 == -G_MMPS2 // 2
 
 
 def run(dts, alts, accs, have, **config):

@@ -66,6 +66,16 @@ def test_shared_modules_import_unchanged(interp):
     assert run_micropython(code, interp).strip().endswith("imported")
 
 
+def test_a_stray_module_in_the_temp_directory_shadows_nothing(tmp_path, monkeypatch):
+    # the unix port puts the script's directory first on its path: a user's os.py in the system's
+    # temp directory once broke every device test ("no module named 'numpy'", from that os.py)
+    import tempfile
+
+    (tmp_path / "os.py").write_text("raise ImportError('the stray os.py')\n")
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    assert run_micropython("import os\nprint(os.getcwd() != '')\n", "unix").strip() == "True"
+
+
 @pytest.mark.parametrize("interp", INTERPRETERS)
 def test_32bit_interpreter_really_has_31bit_small_ints(interp):
     # guards the premise of the wasm32 tests: past 2**30 a product allocates and heap_lock catches it

@@ -195,6 +195,7 @@ def test_extreme_flights_heap_locked_bit_identical(board, name):
     flight = make_flight(**kwargs)
     out = b.exec("import gc\ngc.collect()\n"
                  "from tools.bench_step import run_flight, run_fc_flight\n"
+                 "from tools.synthetic_flight import make_flight\n"
                  "flight = make_flight(**%r)\n"
                  "fired, states = run_flight('project', 'velocity', flight, %d, True)\n"
                  "g.print_ints('fired', [fired])\ng.print_ints('states', states)\n"
