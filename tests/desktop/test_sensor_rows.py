@@ -111,8 +111,10 @@ def _layout_drogue_errors(layout):
             assert ev not in events or events[ev].index > events["burnout"].index, (name, ev)
         if name == ANOMALOUS and layout != "split_rows":
             # with a fifth (or half) of its barometer readings the ejection-like event at 2.0 s
-            # is seen later: drogue 0.3 s before the reference apogee (0.24 s after with all)
-            assert -0.4 <= events["drogue"].time_s - ref["apogee_time_s"] <= 1.0
+            # is seen later: drogue 0.3 s before the reference apogee (0.24 s after with all).
+            # With a 20 Hz barometer, 1.16 s after: the tumbling readings outside the filter's
+            # gate leave the track holding its velocity (docs/DESIGN.md D16 rule 16; 0.71 s before)
+            assert -0.4 <= events["drogue"].time_s - ref["apogee_time_s"] <= 1.2
             continue
         if name == ANOMALOUS:
             assert -0.2 <= events["drogue"].time_s - ref["apogee_time_s"] <= 1.0
@@ -132,7 +134,7 @@ def test_layouts_of_the_real_flights_never_fire_early(layout):
 
 XFAIL_LATE_LAYOUT = pytest.mark.xfail(strict=True, reason=(
     "with a 20 Hz barometer beside a 100 Hz accelerometer the MegaMetrum flights 058-005 and "
-    "058-006 fire 0.51 and 0.58 s late, 336-002 0.38 s: mean 0.194 s, max 0.58 s against 0.15 / "
+    "058-006 fire 0.51 and 0.58 s late, 336-002 0.48 s: mean 0.201 s, max 0.58 s against 0.15 / "
     "0.30 s (docs/BENCHMARKS.md, issue 'Never fooled by one sensor')"))
 
 
