@@ -283,7 +283,7 @@ MUTANTS = [
     ("accel-only-apogee-needs-the-filter", FLIGHT,
      "            and fc.kf.vel_q4 <= 0\n",
      "",
-     ARB_TESTS + "::test_an_accelerometer_glitching_to_full_scale_in_coast_does_not_decide_alone"),
+     ARB_TESTS + "::test_an_in_gate_glitch_train_does_not_decide_alone"),
     ("accel-retire-needs-clean-baro", FLIGHT,
      "if fc.baro_excluded and now_ms - fc.health.baro_spike_ms >= _BARO_CLEAN_MS and (",
      "if fc.baro_excluded and (",
