@@ -374,6 +374,12 @@ def reads_slow(arb, floor_mmps):
         floor_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps)
 
 
+def climbs_fast(arb, floor_mmps):
+    """The barometer's newest window climbed faster than ``floor_mmps`` plus three times the
+    learnt noise of its rate (docs/DESIGN.md D16 rule 17)."""
+    return arb.baro_rate_mmps > floor_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps
+
+
 def judge_late(arb):
     """The judgement ``close_slot`` deferred, of the newest window. It must come before the track,
     the anchor or the history change, and before ``baro_consistent`` or ``baro_rate_mmps`` is read:

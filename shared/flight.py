@@ -93,7 +93,15 @@ except ImportError:
 
 from shared import ballistic
 from shared.apogee import SeedRule, VelocityRule
-from shared.arbitration import Arbitration, add_baro, close_slot, integrate, judge_late, reads_slow
+from shared.arbitration import (
+    Arbitration,
+    add_baro,
+    climbs_fast,
+    close_slot,
+    integrate,
+    judge_late,
+    reads_slow,
+)
 from shared.attrs import make_room
 from shared.detector import Detector
 from shared.gains_table import PROJECT, PROJECT_LOW_NOISE
@@ -200,6 +208,10 @@ _BARO_APOGEE_DECEL_MAX_MMPS2 = const(19613)
 # a tumbling rocket). Its readings above -0.5 g are left out as not drag, so its noise, no longer
 # zero-mean, would pull the velocity down by several g (D16 rule 15)
 _ACCEL_NOISY_MMPS2 = const(39227)
+
+# No filter apogee while the barometer in use climbs faster than this plus three times its rate's
+# learnt noise (D16 rule 17): at a true apogee its 0.5 s window lags by g x 0.25 s, 2.5 m/s
+_BARO_CLIMB_HOLD_MMPS = const(20000)
 
 # The filter's velocity is trusted as the start of an accelerometer-only bound only after the
 # barometer corrected it this long in coast: the bias model's settling (about 2.5 s) plus the
@@ -523,6 +535,12 @@ class FlightComputer:
                 # holds the apogee until the accelerometer's own estimate says apogee
                 filter_decides = health.accel_ok and (
                     prior_vel_mmps <= -cfg.baro_readmit_mmps or self._dead_reckoning)
+            if filter_decides and climbs_fast(self.arb, _BARO_CLIMB_HOLD_MMPS):
+                # D16 rule 17: nor while the barometer in use climbs fast. At a true apogee its
+                # 0.5 s window reads about +2.5 m/s; faster, the rocket climbs, or the barometer
+                # lies upward (a transient, which only delays). An accelerometer reading six times
+                # the drag after a Mach 2.4 burnout pulled the filter through zero at 531 m/s
+                filter_decides = False
             if clipped and state == BOOST and self.arb.baro_consistent and kf.acc_q4 >> 4 < acc_kin:
                 # a reading clipped at full scale is left out of the filter, but proves at least
                 # that much acceleration: the filter's is held at or above it, not at the value
