@@ -375,9 +375,10 @@ def reads_slow(arb, floor_mmps):
 
 
 def climbs_fast(arb, floor_mmps):
-    """The barometer's newest window climbed faster than ``floor_mmps`` plus three times the
-    learnt noise of its rate (docs/DESIGN.md D16 rule 17)."""
-    return arb.baro_rate_mmps > floor_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps
+    """The track bounds the velocity from both sides, and the barometer's newest window climbed
+    faster than ``floor_mmps`` plus three times the learnt noise of its rate (docs/DESIGN.md D16
+    rule 17)."""
+    return arb.upper_valid and arb.baro_rate_mmps > floor_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps
 
 
 def judge_late(arb):

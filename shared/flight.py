@@ -536,10 +536,12 @@ class FlightComputer:
                 filter_decides = health.accel_ok and (
                     prior_vel_mmps <= -cfg.baro_readmit_mmps or self._dead_reckoning)
             if filter_decides and climbs_fast(self.arb, _BARO_CLIMB_HOLD_MMPS):
-                # D16 rule 17: nor while the barometer in use climbs fast. At a true apogee its
-                # 0.5 s window reads about +2.5 m/s; faster, the rocket climbs, or the barometer
-                # lies upward (a transient, which only delays). An accelerometer reading six times
-                # the drag after a Mach 2.4 burnout pulled the filter through zero at 531 m/s
+                # D16 rule 17: nor, while the accelerometer's track bounds the velocity from both
+                # sides, while the barometer climbs fast. At a true apogee its 0.5 s window reads
+                # about +2.5 m/s; faster, the rocket climbs, or the barometer lies upward (a
+                # transient, which only delays). An accelerometer reading six times the drag after
+                # a Mach 2.4 burnout pulled the filter through zero at 531 m/s. (Without such a
+                # track, rules 5, 10, 11 and 12 hold the filter)
                 filter_decides = False
             if clipped and state == BOOST and self.arb.baro_consistent and kf.acc_q4 >> 4 < acc_kin:
                 # a reading clipped at full scale is left out of the filter, but proves at least
@@ -1177,9 +1179,9 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         if coasting and not clipped:
             # not drag (a shock, an ejection, a tumble, or thrust: see step), or outside the
             # filter's gate (D16 rule 16): the track holds, its margin covers the reading
-            gate = fc.det.gate_acc_mmps2
-            left_out = acc_kin > _NOT_DRAG_MMPS2 or gate and not (
-                -gate <= acc_kin - (fc.kf.acc_q4 >> 4) <= gate)
+            # (the detector's gate is on, GATE_ACC_MMPS2, when its phase is the state: no flags)
+            left_out = acc_kin > _NOT_DRAG_MMPS2 or fc._det_phase == state and not (
+                -GATE_ACC_MMPS2 <= acc_kin - (fc.kf.acc_q4 >> 4) <= GATE_ACC_MMPS2)
         if left_out:
             arb.integrate_missing(dt_ms, acc_kin)
         else:

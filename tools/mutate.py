@@ -455,7 +455,7 @@ MUTANTS = [
      "                ):\n            # D16 rule 15",
      ARB_TESTS + "::test_boost_vibration_and_a_noisy_part_keep_the_accelerometer"),
     ("track-leaves-out-the-gate", FLIGHT,
-     "            left_out = acc_kin > _NOT_DRAG_MMPS2 or gate and not (",
+     "            left_out = acc_kin > _NOT_DRAG_MMPS2 or fc._det_phase == state and not (",
      "            left_out = acc_kin > _NOT_DRAG_MMPS2 or False and not (",
      ARB_TESTS + "::test_one_sided_accelerometer_spikes_in_coast_are_left_out_of_the_track"),
     ("baro-climb-holds-the-filter", FLIGHT,
