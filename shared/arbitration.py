@@ -66,6 +66,13 @@ _NO_DIFF = const(-0x3FFFFFFF)  # a slot whose window was not judged
 # 300 s and 3 km/s, so that their product (mm) stays inside 31 bits
 _PART_DT_LIMIT_MS = const(300000)
 _PART_VEL_LIMIT_MPS = const(3000)
+# A barometer that climbs fast (``climbs_fast``) and reads above the accelerometer-carried filter,
+# or less than this below it, rises away from the accelerometer's account (D16 rule 18). A
+# negative transient's return climbs back to the filter from below at L / tau (L: what is left of
+# it, tau: its decay's time constant), so it is within N = 10 m and faster than the hold's F = 5 m/s
+# only while F tau < L < N: for tau ln(N / (F tau)), at most N / (F e) = 0.74 s (tau = 0.74 s). A
+# positive transient rises above the filter for its rise alone (0.1 to 0.5 s)
+_NEAR_MM = const(10000)
 
 
 # shared.physics's G_MMPS2, folded here: on MicroPython an imported constant is a global
@@ -133,6 +140,8 @@ class Arbitration:
         self._diff = array("i", [_NO_DIFF] * _HISTORY_SLOTS)
         self._change_avg_mmps = 0
         self._change_run = 0
+        # the learnt noise as it stood at launch: the climb holds' (``climbs_fast``)
+        self.pad_noise_mmps = 0
         self._slots = 0  # slots filled (saturates at _HISTORY_SLOTS)
         self._win_vel = 0  # sum of the track's velocities over the window's slots (mm/s)
         # closes to come before the window holds no slot without a barometric reading (such a
@@ -152,6 +161,11 @@ class Arbitration:
         self.vel_mmps = vel_mmps
         self.margin_mmps = self.upper_extra_mmps = 0
         self._vel_um = self._margin_um = 0
+
+    def note_launch(self):
+        """Launch: keep the change test's learnt noise as it stood on the pad, a barometer at rest
+        (in flight a lie that moves the barometer's rate against the track's widens it)."""
+        self.pad_noise_mmps = self._change_avg_mmps
 
     def stop(self):
         """The accelerometer froze or was lost: its integral no longer bounds anything."""
@@ -246,6 +260,14 @@ class Arbitration:
         if apart < 0:
             apart = -apart
         return apart > lie_mm + grown_mps * dt_ms
+
+    def climbs_away(self, filter_alt_mm, floor_mmps):
+        """The barometer's newest window, judged (a reading in each of its slots), climbed fast
+        (``climbs_fast``) and its newest slot reads above ``filter_alt_mm``, or less than _NEAR_MM
+        below it: it rises away from the accelerometer-carried filter (docs/DESIGN.md D16 rule
+        18). (A method: it runs on the rare samples of an accelerometer-only apogee.)"""
+        return (not self._unjudged and self._alt[self._head] - filter_alt_mm > -_NEAR_MM
+                and climbs_fast(self, floor_mmps))
 
 
 # The per-sample updates: module-level functions taking the arbitration (on MicroPython a method
@@ -376,9 +398,11 @@ def reads_slow(arb, floor_mmps):
 
 def climbs_fast(arb, floor_mmps):
     """The track bounds the velocity from both sides, and the barometer's newest window climbed
-    faster than ``floor_mmps`` plus three times the learnt noise of its rate (docs/DESIGN.md D16
-    rule 17)."""
-    return arb.upper_valid and arb.baro_rate_mmps > floor_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps
+    faster than ``floor_mmps`` plus three times the noise of its rate learnt on the pad
+    (docs/DESIGN.md D16 rule 17). (While a slot of that window holds no reading its rate is an
+    older window's: at 20 m/s no real flight's is held by it, and on the Cortex-M0 the test costs
+    every coast sample)"""
+    return arb.upper_valid and arb.baro_rate_mmps > floor_mmps + _CHANGE_NOISE_K * arb.pad_noise_mmps
 
 
 def judge_late(arb):

@@ -203,15 +203,21 @@ _APOGEE_DECEL_MAX_MMPS2 = const(98067)
 # -g; a filter beyond -2 g is still ringing from its boost, not describing a coast (D16 rule 12)
 _BARO_APOGEE_DECEL_MAX_MMPS2 = const(19613)
 # An accelerometer whose readings in coast jump by more than this on average from one to the next
-# (``SensorHealth.acc_jitter``) reads noise of more than about 3.5 g rms, no drag: drag changes
+# (``SensorHealth.acc_jitter``) reads noise of more than about 3.9 g rms, no drag: drag changes
 # by milli-g per reading, and the real logs' coasts jump by at most 2.5 g on average (319-005,
 # a tumbling rocket). Its readings above -0.5 g are left out as not drag, so its noise, no longer
 # zero-mean, would pull the velocity down by several g (D16 rule 15)
 _ACCEL_NOISY_MMPS2 = const(39227)
 
 # No filter apogee while the barometer in use climbs faster than this plus three times its rate's
-# learnt noise (D16 rule 17): at a true apogee its 0.5 s window lags by g x 0.25 s, 2.5 m/s
+# noise learnt on the pad (D16 rule 17): at a true apogee its 0.5 s window lags by g x 0.25 s,
+# 2.5 m/s. Not lower: a negative transient held to apogee returns climbing, and at 5 m/s the hold
+# kept 42 more of the fault benchmark's mid-coast transients over 1 s late
 _BARO_CLIMB_HOLD_MMPS = const(20000)
+# No accelerometer-only apogee while the barometer left out climbs faster than this (plus three
+# times its pad noise) away from the accelerometer-carried filter (D16 rule 18): twice the 0.5 s
+# window's lag at a true apogee. A negative transient's return climbs from below the filter
+_BARO_AWAY_MMPS = const(5000)
 
 # The filter's velocity is trusted as the start of an accelerometer-only bound only after the
 # barometer corrected it this long in coast: the bias model's settling (about 2.5 s) plus the
@@ -539,9 +545,10 @@ class FlightComputer:
                 # D16 rule 17: nor, while the accelerometer's track bounds the velocity from both
                 # sides, while the barometer climbs fast. At a true apogee its 0.5 s window reads
                 # about +2.5 m/s; faster, the rocket climbs, or the barometer lies upward (a
-                # transient, which only delays). An accelerometer reading six times the drag after
-                # a Mach 2.4 burnout pulled the filter through zero at 531 m/s. (Without such a
-                # track, rules 5, 10, 11 and 12 hold the filter)
+                # transient, which only delays: by its rise, or a negative one held to apogee by
+                # its return). An accelerometer reading six times the drag after a Mach 2.4
+                # burnout pulled the filter through zero at 531 m/s. (Without such a track, rules
+                # 5, 10, 11 and 12 hold the filter)
                 filter_decides = False
             if clipped and state == BOOST and self.arb.baro_consistent and kf.acc_q4 >> 4 < acc_kin:
                 # a reading clipped at full scale is left out of the filter, but proves at least
@@ -608,6 +615,7 @@ class FlightComputer:
         self.launch_ms = self.ignition_ms = self.now_ms
         self.state = BOOST
         self.events |= EV_LAUNCH
+        self.arb.note_launch()
         ground = self.pad.launch_ground()
         jump = self.ground_alt_mm - ground
         if jump > PAD_BARO_JUMP_MM or jump < -PAD_BARO_JUMP_MM:
@@ -1297,16 +1305,17 @@ def _accel_only_apogee(fc):
     the track's change and margin since (``Arbitration.set_anchor``). Never early; late by the
     margin / g. A clipped track bounds nothing from above: then the backup timer. Not while a
     barometer left out but alive lies farther from the filter than a pressure transient can
-    (the rocket slow, no static-port error): the accelerometer does not decide alone against it
-    (D16 rule 14)."""
+    (the rocket slow, no static-port error), nor while it climbs fast away from the filter:
+    the accelerometer does not decide alone against it (D16 rules 14 and 18)."""
     arb = fc.arb
     if not arb.upper_valid:
         return False
     # (the barometer's test last: the bounds hold the apogee off through most of the mode)
     return ((arb.upper_mmps() <= 0 or fc._filter_anchored and arb.anchored_upper_mmps() <= 0)
             and fc.kf.vel_q4 <= 0
-            and not (fc.baro_excluded and arb.parted_beyond_lie(
-                fc.kf.alt_q4 >> 4, fc.now_ms, arb.transient_max_mm, False)))
+            and not (fc.baro_excluded and (arb.parted_beyond_lie(
+                fc.kf.alt_q4 >> 4, fc.now_ms, arb.transient_max_mm, False)
+                or arb.climbs_away(fc.kf.alt_q4 >> 4, _BARO_AWAY_MMPS))))
 
 
 def _main_due_without_baro(fc, since_drogue_ms):
