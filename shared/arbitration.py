@@ -262,12 +262,11 @@ class Arbitration:
         return apart > lie_mm + grown_mps * dt_ms
 
     def climbs_away(self, filter_alt_mm, floor_mmps):
-        """The barometer's newest window, judged (a reading in each of its slots), climbed fast
-        (``climbs_fast``) and its newest slot reads above ``filter_alt_mm``, or less than _NEAR_MM
-        below it: it rises away from the accelerometer-carried filter (docs/DESIGN.md D16 rule
-        18). (A method: it runs on the rare samples of an accelerometer-only apogee.)"""
-        return (not self._unjudged and self._alt[self._head] - filter_alt_mm > -_NEAR_MM
-                and climbs_fast(self, floor_mmps))
+        """The barometer climbs fast (``climbs_fast``) and its newest slot reads above
+        ``filter_alt_mm``, or less than _NEAR_MM below it: it rises away from the
+        accelerometer-carried filter (docs/DESIGN.md D16 rule 18). (A method: it runs on the rare
+        samples of an accelerometer-only apogee.)"""
+        return self._alt[self._head] - filter_alt_mm > -_NEAR_MM and climbs_fast(self, floor_mmps)
 
 
 # The per-sample updates: module-level functions taking the arbitration (on MicroPython a method
@@ -399,10 +398,10 @@ def reads_slow(arb, floor_mmps):
 def climbs_fast(arb, floor_mmps):
     """The track bounds the velocity from both sides, and the barometer's newest window climbed
     faster than ``floor_mmps`` plus three times the noise of its rate learnt on the pad
-    (docs/DESIGN.md D16 rule 17). (While a slot of that window holds no reading its rate is an
-    older window's: at 20 m/s no real flight's is held by it, and on the Cortex-M0 the test costs
-    every coast sample)"""
-    return arb.upper_valid and arb.baro_rate_mmps > floor_mmps + _CHANGE_NOISE_K * arb.pad_noise_mmps
+    (docs/DESIGN.md D16 rules 17 and 18). False while a slot of that window holds no reading (its
+    rate is then an older window's)."""
+    return (arb.upper_valid and arb.baro_rate_mmps > floor_mmps + _CHANGE_NOISE_K * arb.pad_noise_mmps
+            and not arb._unjudged)
 
 
 def judge_late(arb):

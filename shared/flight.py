@@ -541,15 +541,6 @@ class FlightComputer:
                 # holds the apogee until the accelerometer's own estimate says apogee
                 filter_decides = health.accel_ok and (
                     prior_vel_mmps <= -cfg.baro_readmit_mmps or self._dead_reckoning)
-            if filter_decides and climbs_fast(self.arb, _BARO_CLIMB_HOLD_MMPS):
-                # D16 rule 17: nor, while the accelerometer's track bounds the velocity from both
-                # sides, while the barometer climbs fast. At a true apogee its 0.5 s window reads
-                # about +2.5 m/s; faster, the rocket climbs, or the barometer lies upward (a
-                # transient, which only delays: by its rise, or a negative one held to apogee by
-                # its return). An accelerometer reading six times the drag after a Mach 2.4
-                # burnout pulled the filter through zero at 531 m/s. (Without such a track, rules
-                # 5, 10, 11 and 12 hold the filter)
-                filter_decides = False
             if clipped and state == BOOST and self.arb.baro_consistent and kf.acc_q4 >> 4 < acc_kin:
                 # a reading clipped at full scale is left out of the filter, but proves at least
                 # that much acceleration: the filter's is held at or above it, not at the value
@@ -559,6 +550,18 @@ class FlightComputer:
                 # reads as a motor lit: the barometer, not the part, must then end that boost)
                 kf.acc_q4 = acc_kin << 4 if acc_kin < _CLIP_ACC_LIMIT_MMPS2 else RATE_LIMIT_Q4
             apogee = det.step(dt_us, alt_mm, acc_kin, have, filter_decides)
+            if apogee and climbs_fast(self.arb, _BARO_CLIMB_HOLD_MMPS):
+                # D16 rule 17: nor, while the accelerometer's track bounds the velocity from both
+                # sides, while the barometer climbs fast. At a true apogee its 0.5 s window reads
+                # about +2.5 m/s; faster, the rocket climbs, or the barometer lies upward (a
+                # transient, which only delays: by its rise, or a negative one held to apogee by
+                # its return). An accelerometer reading six times the drag after a Mach 2.4
+                # burnout pulled the filter through zero at 531 m/s. (Without such a track, rules
+                # 5, 10, 11 and 12 hold the filter.) Tested on the apogee the rule declared, not
+                # before it: the rule is asked again at the next sample, as if it had not been
+                # enabled on this one, and the coast's other samples do not pay for the test
+                det.rule.fired = False
+                apogee = False
             if mode == MODE_ACCEL and enabled:
                 apogee = _accel_only_apogee(self)
         else:

@@ -178,6 +178,7 @@ def test_bench_flight_detector_heap_locked_bit_identical(board, table, rule):
     flight = make_flight(rate_hz=BENCH_RATE_HZ)
     enable_from = len(flight[0]) // 4
     out = b.exec("from tools.bench_step import run_flight\n"
+                 "from tools.synthetic_flight import make_flight\n"
                  "fired, states = run_flight(%r, %r, make_flight(rate_hz=%d), %d, True)\n"
                  "g.print_ints('fired', [fired])\ng.print_ints('states', states)\n"
                  % (table, rule, BENCH_RATE_HZ, enable_from))
