@@ -238,12 +238,12 @@ class App:
                 if not PRESSURE_MIN_Q4 >> 4 <= p <= PRESSURE_MAX_Q4 >> 4:
                     problems.append((status.ERR_BARO, "barometer: %d Pa is implausible" % p))
                 mean_cm = d_sum / baro_ok
-                noise_m = max(0.0, d_sq / baro_ok - mean_cm * mean_cm) ** 0.5 / 100
-                self.pad_figures["baro_noise_mm"] = int(noise_m * 1000)
-                if noise_m * 100 > BARO_NOISE_MAX_CM:
+                noise_cm = max(0.0, d_sq / baro_ok - mean_cm * mean_cm) ** 0.5
+                self.pad_figures["baro_noise_mm"] = int(noise_cm * 10)
+                if noise_cm > BARO_NOISE_MAX_CM:
                     problems.append((status.ERR_BARO, "barometer: %.1f m rms of noise at rest, more than "
                                      "%.1f m: a faulty part, or a static port open to the wind"
-                                     % (noise_m, BARO_NOISE_MAX_CM / 100)))
+                                     % (noise_cm / 100, BARO_NOISE_MAX_CM / 100)))
         if cfg.has_accel and hw.accel is not None:
             if accel_ok < (n * 9) // 10:
                 problems.append((status.ERR_ACCEL,

@@ -129,6 +129,11 @@ class Detector:
         self.kf.reset(alt_mm, 0, acc_mmps2)
         self.rule.reset()
 
+    def withdraw_apogee(self):
+        """The caller does not take the apogee ``step`` just declared: the rule is asked again at
+        the next sample, as if it had not been enabled on this one (its history is kept)."""
+        self.rule.fired = False
+
     def step(self, dt_us, alt_mm, acc_mmps2, have, enabled):
         """Advance by ``dt_us`` and correct with the readings flagged in ``have``.
 

@@ -558,9 +558,8 @@ class FlightComputer:
                 # its return). An accelerometer reading six times the drag after a Mach 2.4
                 # burnout pulled the filter through zero at 531 m/s. (Without such a track, rules
                 # 5, 10, 11 and 12 hold the filter.) Tested on the apogee the rule declared, not
-                # before it: the rule is asked again at the next sample, as if it had not been
-                # enabled on this one, and the coast's other samples do not pay for the test
-                det.rule.fired = False
+                # before it, so that the coast's other samples do not pay for the test
+                det.withdraw_apogee()
                 apogee = False
             if mode == MODE_ACCEL and enabled:
                 apogee = _accel_only_apogee(self)

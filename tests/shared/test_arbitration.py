@@ -720,8 +720,8 @@ def test_no_accelerometer_only_apogee_while_the_barometer_climbs_away():
     # the truth), and before D16 rule 18 the accelerometer-only apogee fired 8.4 s early, the
     # rocket climbing at 92 m/s and the barometer 350 m above the filter, climbing at 97 m/s. The
     # accelerometer does not decide alone against a barometer that climbs away from its account:
-    # no lie of the barometer's rises faster than 20 m/s for longer than a transient's rise. (The
-    # two stay apart, and the backup timer fires: nominal apogee + 3 s)
+    # no lie of the barometer's rises above the filter faster than 5 m/s for longer than a
+    # transient's rise. (The two stay apart, and the backup timer fires: nominal apogee + 3 s)
     fl = flight(SUBSONIC_ROCKET)
     accel = fl.accel_mmps2.copy()
     after = fl.time_s >= SUBSONIC_ROCKET.burn_s + 0.5
