@@ -73,6 +73,11 @@ _PART_VEL_LIMIT_MPS = const(3000)
 # only while F tau < L < N: for tau ln(N / (F tau)), at most N / (F e) = 0.74 s (tau = 0.74 s). A
 # positive transient rises above the filter for its rise alone (0.1 to 0.5 s)
 _NEAR_MM = const(10000)
+# A coasting rocket's climb rate falls over a window (0.5 s) by at least g x 0.5 s and by what the
+# track's does, within the accelerometer's lie: a barometric rate that fell by less than gravity
+# alone allows, or by more than the track's, by more than this (plus three times its pad noise)
+# is no climb (D16 rule 17) but a negative transient's return, setting in or decaying
+_NOT_MOTION_MMPS = const(2000)
 
 
 # shared.physics's G_MMPS2, folded here: on MicroPython an imported constant is a global
@@ -395,13 +400,34 @@ def reads_slow(arb, floor_mmps):
         floor_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps)
 
 
-def climbs_fast(arb, floor_mmps):
+def climbs_fast(arb, floor_mmps, any_mmps=0):
     """The track bounds the velocity from both sides, and the barometer's newest window climbed
     faster than ``floor_mmps`` plus three times the noise of its rate learnt on the pad
     (docs/DESIGN.md D16 rules 17 and 18). False while a slot of that window holds no reading (its
-    rate is then an older window's)."""
-    return (arb.upper_valid and arb.baro_rate_mmps > floor_mmps + _CHANGE_NOISE_K * arb.pad_noise_mmps
-            and not arb._unjudged)
+    rate is then an older window's). With ``any_mmps`` (rule 17), slower than that (plus the
+    noise) only as a coasting rocket climbs: over the last window its rate fell by at least
+    gravity's share (no thrust: else a negative transient's return setting in) and by no more
+    than the track's (else a return decaying), each within _NOT_MOTION_MMPS plus the noise."""
+    noise = _CHANGE_NOISE_K * arb.pad_noise_mmps
+    rate = arb.baro_rate_mmps
+    if not (arb.upper_valid and rate > floor_mmps + noise and not arb._unjudged):
+        return False
+    if rate > any_mmps + noise or arb._slots < _HISTORY_SLOTS:
+        return True
+    head = arb._head
+    before = head - _WINDOW_SLOTS
+    if before < 0:
+        before += _HISTORY_SLOTS
+    oldest = before - _WINDOW_SLOTS
+    if oldest < 0:
+        oldest += _HISTORY_SLOTS
+    span_ms = arb._t[before] - arb._t[oldest]
+    if span_ms <= 0:
+        return True
+    rose = rate - (arb._alt[before] - arb._alt[oldest]) * 1000 // span_ms
+    tol = _NOT_MOTION_MMPS + noise
+    return (rose + _G_MMPS2 * (arb._t[head] - arb._t[before]) // 1000 <= tol
+            and rose - (arb._vel[head] - arb._vel[before]) >= -tol)
 
 
 def judge_late(arb):

@@ -209,11 +209,16 @@ _BARO_APOGEE_DECEL_MAX_MMPS2 = const(19613)
 # zero-mean, would pull the velocity down by several g (D16 rule 15)
 _ACCEL_NOISY_MMPS2 = const(39227)
 
-# No filter apogee while the barometer in use climbs faster than this plus three times its rate's
-# noise learnt on the pad (D16 rule 17): at a true apogee its 0.5 s window lags by g x 0.25 s,
-# 2.5 m/s. Not lower: a negative transient held to apogee returns climbing, and at 5 m/s the hold
-# kept 42 more of the fault benchmark's mid-coast transients over 1 s late
-_BARO_CLIMB_HOLD_MMPS = const(20000)
+# No filter apogee while the barometer in use climbs faster than _BARO_CLIMB_FAST_MMPS, or faster
+# than _BARO_CLIMB_HOLD_MMPS as a coasting rocket does (``climbs_fast``), each plus three times
+# its rate's noise learnt on the pad (D16 rule 17). At a true apogee the 0.5 s window lags by
+# g x 0.25 s, 2.5 m/s, and a quantised part's rate reads a step more (AltOS's 1.3 m steps:
+# 2.6 m/s), which its noise at rest on the pad does not show. Below 20 m/s a negative transient's
+# return (its rate rising, or falling faster than the track's) does not hold the filter; above
+# it, held whatever the rate does, the filter may lie too (pulled down before the barometer was
+# left out: seed 6's rocket 206 of the random rockets fired 0.9 s early without that tier)
+_BARO_CLIMB_HOLD_MMPS = const(6000)
+_BARO_CLIMB_FAST_MMPS = const(20000)
 # No accelerometer-only apogee while the barometer left out climbs faster than this (plus three
 # times its pad noise) away from the accelerometer-carried filter (D16 rule 18): twice the 0.5 s
 # window's lag at a true apogee. A negative transient's return climbs from below the filter
@@ -550,12 +555,13 @@ class FlightComputer:
                 # reads as a motor lit: the barometer, not the part, must then end that boost)
                 kf.acc_q4 = acc_kin << 4 if acc_kin < _CLIP_ACC_LIMIT_MMPS2 else RATE_LIMIT_Q4
             apogee = det.step(dt_us, alt_mm, acc_kin, have, filter_decides)
-            if apogee and climbs_fast(self.arb, _BARO_CLIMB_HOLD_MMPS):
+            if apogee and climbs_fast(self.arb, _BARO_CLIMB_HOLD_MMPS, _BARO_CLIMB_FAST_MMPS):
                 # D16 rule 17: nor, while the accelerometer's track bounds the velocity from both
-                # sides, while the barometer climbs fast. At a true apogee its 0.5 s window reads
-                # about +2.5 m/s; faster, the rocket climbs, or the barometer lies upward (a
-                # transient, which only delays: by its rise, or a negative one held to apogee by
-                # its return). An accelerometer reading six times the drag after a Mach 2.4
+                # sides, while the barometer climbs fast (faster than 6 m/s only as a coasting
+                # rocket climbs). At a true apogee its 0.5 s window reads about +2.5 m/s; faster,
+                # the rocket climbs, or the barometer lies upward (a transient, which only delays:
+                # by its rise, or a negative one held to apogee by its return). An accelerometer
+                # reading six times the drag after a Mach 2.4
                 # burnout pulled the filter through zero at 531 m/s. (Without such a track, rules
                 # 5, 10, 11 and 12 hold the filter.) Tested on the apogee the rule declared, not
                 # before it, so that the coast's other samples do not pay for the test

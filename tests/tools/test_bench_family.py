@@ -84,6 +84,16 @@ def test_the_climb_holds_count_the_barometers_noise_learnt_on_the_pad():
     assert -0.5 <= row["error_s"] <= 1.0
 
 
+def test_a_barometer_returning_faster_than_20_mps_holds_the_filter_whatever_its_rate_does():
+    """Seed 6's rocket 206: 279 m, 272 m low 0.4 s after burnout, decaying over 2.8 s. The filter,
+    pulled down before the barometer was left out, carries on 10 m/s slow; the barometer is taken
+    back at 47 m/s, decaying, with the rocket at 9 m/s. Both lie, on either side. A return
+    decaying is no climb (D16 rule 17), but above 20 m/s the rule holds whatever the rate does:
+    1.86 s late (0.89 s early without that tier)."""
+    (row,) = bench_family.fly_rocket((6, 206, ("transient_burnout",), ("both",)))
+    assert -0.5 <= row["error_s"] <= 2.5
+
+
 def test_an_unwritable_rows_file_is_one_line_and_exit_2(tmp_path, capsys):
     assert bench_family.main(["--rockets", "1", "--rows", str(tmp_path / "no" / "rows.jsonl")]) == 2
     err = capsys.readouterr().err

@@ -223,6 +223,22 @@ def test_transient_in_mid_coast_never_fires_early(subsonic, dh_m, decay_s):
     assert_not_early(subsonic, _mid_coast_transient_drogue(subsonic, dh_m, decay_s))
 
 
+@pytest.mark.parametrize("rocket", ["subsonic", "supersonic"])
+def test_an_offset_released_just_before_apogee_does_not_hold_the_filter(rocket, request):
+    """A barometer reading 100 m low from mid coast (airbrakes held open) until 0.2 s before
+    apogee, then decaying over 2.7 s: as the filter reaches zero, the barometer's return sets in,
+    climbing at 6 to 20 m/s. A coasting rocket's climb rate falls by at least g x 0.5 s over a
+    window; this one fell by less, so it is no climb, and D16 rule 17 does not hold the filter
+    (drogue 0.1 s after apogee; held, the filter follows the return and the barometer is left out:
+    2.2 to 2.5 s late)."""
+    traj = request.getfixturevalue(rocket)
+    mid = 0.5 * (traj.burnout_time_s + traj.apogee_time_s)
+    drogue, _ = run(traj, fault("transient_midcoast", dh_m=-100.0, start_s=mid, rise_s=0.25,
+                                decay_s=2.7, hold_until_s=traj.apogee_time_s - 0.2))
+    assert_not_early(traj, drogue)
+    assert drogue - traj.apogee_time_s <= 0.5
+
+
 def _mid_coast_transient_drogue(traj, dh_m, decay_s):
     start = 0.5 * (traj.burnout_time_s + traj.apogee_time_s)
     drogue, _ = run(traj, fault("transient_midcoast", dh_m=dh_m, start_s=start, rise_s=0.1,
