@@ -404,15 +404,21 @@ def climbs_fast(arb, floor_mmps, any_mmps=0):
     """The track bounds the velocity from both sides, and the barometer's newest window climbed
     faster than ``floor_mmps`` plus three times the noise of its rate learnt on the pad
     (docs/DESIGN.md D16 rules 17 and 18). False while a slot of that window holds no reading (its
-    rate is then an older window's). With ``any_mmps`` (rule 17), slower than that (plus the
-    noise) only as a coasting rocket climbs: over the last window its rate fell by at least
+    rate is then an older window's). With ``any_mmps`` (rule 17), faster than ``any_mmps`` (plus
+    the noise) with a track bounding both sides, or else faster than ``floor_mmps`` with a track
+    running (a clip in the boost leaves its change in coast whole) and as a coasting rocket
+    climbs: over the last window its rate fell by at least
     gravity's share (no thrust: else a negative transient's return setting in) and by no more
     than the track's (else a return decaying), each within _NOT_MOTION_MMPS plus the noise."""
     noise = _CHANGE_NOISE_K * arb.pad_noise_mmps
     rate = arb.baro_rate_mmps
-    if not (arb.upper_valid and rate > floor_mmps + noise and not arb._unjudged):
+    if not (arb.valid and rate > floor_mmps + noise and not arb._unjudged):
         return False
-    if rate > any_mmps + noise or arb._slots < _HISTORY_SLOTS:
+    if arb.upper_valid and rate > any_mmps + noise:
+        return True
+    if not any_mmps:
+        return False
+    if arb._slots < _HISTORY_SLOTS:
         return True
     head = arb._head
     before = head - _WINDOW_SLOTS

@@ -556,15 +556,15 @@ class FlightComputer:
                 kf.acc_q4 = acc_kin << 4 if acc_kin < _CLIP_ACC_LIMIT_MMPS2 else RATE_LIMIT_Q4
             apogee = det.step(dt_us, alt_mm, acc_kin, have, filter_decides)
             if apogee and climbs_fast(self.arb, _BARO_CLIMB_HOLD_MMPS, _BARO_CLIMB_FAST_MMPS):
-                # D16 rule 17: nor, while the accelerometer's track bounds the velocity from both
-                # sides, while the barometer climbs fast (faster than 6 m/s only as a coasting
-                # rocket climbs). At a true apogee its 0.5 s window reads about +2.5 m/s; faster,
-                # the rocket climbs, or the barometer lies upward (a transient, which only delays:
-                # by its rise, or a negative one held to apogee by its return). An accelerometer
-                # reading six times the drag after a Mach 2.4
-                # burnout pulled the filter through zero at 531 m/s. (Without such a track, rules
-                # 5, 10, 11 and 12 hold the filter.) Tested on the apogee the rule declared, not
-                # before it, so that the coast's other samples do not pay for the test
+                # D16 rule 17: nor, while the accelerometer's track runs, while the barometer climbs
+                # fast (faster than 20 m/s with the track bounding both sides; faster than 6 m/s
+                # as a coasting rocket climbs). At a true apogee its 0.5 s window reads about
+                # +2.5 m/s; faster, the rocket climbs, or the barometer lies upward (a transient,
+                # which only delays: by its rise, or a negative one held to apogee by its return).
+                # An accelerometer reading six times the drag after a Mach 2.4 burnout pulled the
+                # filter through zero at 531 m/s. (Without a track, rules 5, 10, 11 and 12 hold
+                # the filter.) Tested on the apogee the rule declared, not before it, so that the
+                # coast's other samples do not pay for the test
                 det.withdraw_apogee()
                 apogee = False
             if mode == MODE_ACCEL and enabled:

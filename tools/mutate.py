@@ -492,10 +492,15 @@ MUTANTS = [
      "    return (True",
      "tests/tools/test_bench_faults.py::test_an_offset_released_just_before_apogee_does_not_hold_the_filter"),
     ("filter-hold-fast-tier", ARB,
-     "    if rate > any_mmps + noise or arb._slots < _HISTORY_SLOTS:",
-     "    if arb._slots < _HISTORY_SLOTS:",
+     "    if arb.upper_valid and rate > any_mmps + noise:",
+     "    if False:",
      "tests/tools/test_bench_family.py::test_a_barometer_returning_faster_than_20_mps_holds_the_filter"
      "_whatever_its_rate_does"),
+    ("filter-hold-lower-tier-without-a-two-sided-track", ARB,
+     "    if not (arb.valid and rate > floor_mmps + noise and not arb._unjudged):",
+     "    if not (arb.upper_valid and rate > floor_mmps + noise and not arb._unjudged):",
+     "tests/tools/test_bench_faults.py::test_a_clipped_boost_still_holds_the_filter_while_the_barometer"
+     "_climbs_as_a_rocket"),
     ("accel-only-hold-floor", FLIGHT,
      "_BARO_AWAY_MMPS = const(5000)",
      "_BARO_AWAY_MMPS = const(20000)",

@@ -636,3 +636,24 @@ def test_a_floor_set_at_the_exclusion_holds_a_decay_the_dead_reckoning_misses(be
     (row,) = [r for r in rows if r["class"] == "transient_midcoast"]
     assert abs(row["fault"]["dh_m"] - 282.6) < 0.1  # the flight traced in docs/DESIGN.md
     assert (row["error_s"] < -EARLY_S) == early
+
+
+def test_a_clipped_boost_still_holds_the_filter_while_the_barometer_climbs_as_a_rocket(bench_cache):
+    """The fault benchmark's C6, flight 133, both sensors: its part clips in the boost, so the
+    track bounds the velocity from below only. 15 m low from 2.3 s before apogee, within 0.4 s,
+    held to apogee: inside the filter's gate, the step pulls the filter's velocity 5 m/s low, and
+    it fired 0.60 s early with the barometer climbing at 10 m/s as a coasting rocket does. The
+    lower tier of D16 rule 17 reads the track's change over a window, not its level, which a clip
+    leaves whole in coast: 0.26 s early."""
+    from desktop.io.rocket_file import load_rocket
+
+    name, flight = "c6_model", 133
+    nominal = bench.trajectory(name, 1, None, bench_cache)
+    spec = load_rocket(bench._rocket_path(name))
+    user = bench.user_settings(nominal, spec.main.deploy_altitude_m if spec.main is not None else None)
+    rows = bench.evaluate((name, bench.ROCKETS.index(name), flight % bench.DEFAULT_TRAJECTORIES, [flight], 1,
+                           bench_cache, user, nominal.max_mach, (("both",), {"transient_midcoast"},
+                                                                ("flight-computer",))))
+    (row,) = [r for r in rows if r["class"] == "transient_midcoast"]
+    assert abs(row["fault"]["dh_m"] + 14.6) < 0.1  # the flight traced in docs/DESIGN.md
+    assert -EARLY_S <= row["error_s"] <= 0.5
