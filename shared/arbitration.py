@@ -430,7 +430,8 @@ def climbs_fast(arb, floor_mmps, any_mmps=0):
     span_ms = arb._t[before] - arb._t[oldest]
     if span_ms <= 0:
         return True
-    rose = rate - (arb._alt[before] - arb._alt[oldest]) * 1000 // span_ms
+    # (the window's rise clamped as _judge clamps it: 31 bits)
+    rose = rate - _clamp(arb._alt[before] - arb._alt[oldest], _SLOT_STEP_LIMIT_MM) * 1000 // span_ms
     tol = _NOT_MOTION_MMPS + noise
     return (rose + _G_MMPS2 * (arb._t[head] - arb._t[before]) // 1000 <= tol
             and rose - (arb._vel[head] - arb._vel[before]) >= -tol)

@@ -501,6 +501,10 @@ MUTANTS = [
      "    if not (arb.upper_valid and rate > floor_mmps + noise and not arb._unjudged):",
      "tests/tools/test_bench_faults.py::test_a_clipped_boost_still_holds_the_filter_while_the_barometer"
      "_climbs_as_a_rocket"),
+    ("filter-hold-rise-in-31-bits", ARB,
+     "_clamp(arb._alt[before] - arb._alt[oldest], _SLOT_STEP_LIMIT_MM) * 1000",
+     "(arb._alt[before] - arb._alt[oldest]) * 1000",
+     "tests/shared/test_micropython_core.py::test_the_climb_hold_over_a_window_after_a_jump_stays_in_31_bits"),
     ("accel-only-hold-floor", FLIGHT,
      "_BARO_AWAY_MMPS = const(5000)",
      "_BARO_AWAY_MMPS = const(20000)",

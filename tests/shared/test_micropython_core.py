@@ -216,6 +216,39 @@ print(max([out[i + 3] for i in range(0, len(out), 6)]), max([out[i + 5] for i in
     assert run_micropython(code, interp).split()[-2:] == ["0", "0"]  # state PAD throughout, no pyro
 
 
+CLIMB_HOLD_AFTER_A_JUMP = """
+from shared.arbitration import Arbitration, add_baro, close_slot, climbs_fast
+from shared.config import load_config
+arb = Arbitration(load_config({{}}))
+arb.start(0)
+alts = [0] * 200 + [k // 5 * 1000000 for k in range(5, 30)] + [5000000 + 100 * k for k in range(75)]
+now_ms = 0
+for alt_mm in alts:
+    now_ms += 10
+    if add_baro(arb, now_ms, alt_mm, True):
+        close_slot(arb, now_ms, 0, 0)
+got = None  # (a new global under the lock would allocate)
+{lock}
+try:
+    got = climbs_fast(arb, 6000, 20000)
+finally:
+    {unlock}
+print(arb.baro_rate_mmps, got)
+"""
+
+
+@pytest.mark.parametrize("interp", INTERPRETERS)
+def test_the_climb_hold_over_a_window_after_a_jump_stays_in_31_bits(interp, capsys):
+    # D16 rule 17's lower tier reads the window before the newest: 5 km of barometric jump there
+    # (five slots of 1 km, the most a slot may step) and a climb at 10 m/s since. The rate over
+    # that window is clamped as the judgement's is, else 5e9 allocates on a 32-bit board
+    exec(CLIMB_HOLD_AFTER_A_JUMP.format(lock="", unlock="pass"), {})
+    expected = capsys.readouterr().out.split()
+    guest = CLIMB_HOLD_AFTER_A_JUMP.format(lock="import micropython\nmicropython.heap_lock()",
+                                           unlock="micropython.heap_unlock()")
+    assert run_micropython(guest, interp).split()[-2:] == expected
+
+
 @pytest.mark.parametrize("interp", INTERPRETERS)
 def test_pressure_glitches_of_50kpa_through_table_and_state_machine(interp):
     # a 30 km flight as the barometer sees it (Pa x 16 through shared/altitude.py), with pressure
