@@ -729,6 +729,15 @@ def test_no_filter_apogee_while_a_truthful_barometer_still_climbs(make, rocket, 
     assert -0.5 <= out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
 
 
+def _transient_before_apogee(rocket, before_s, dh_m):
+    """The flight with a transient of ``dh_m`` (< 0: reading low) from ``before_s`` before apogee,
+    rising within 0.1 s and decaying over 3 s; the backup timer at nominal apogee + 3 s."""
+    base = flight(rocket)
+    fl = flight(rocket, Faults(transient_at_s=base.apogee_s - before_s, transient_m=dh_m,
+                               transient_rise_s=0.1, transient_decay_s=3.0))
+    return run(fl, backup_drogue_s=round(fl.apogee_s + 3))
+
+
 @pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH_ROCKET], ids=["mach1.0", "mach2.4"])
 def test_a_negative_transient_returning_at_apogee_does_not_hold_the_filter(rocket):
     # 150 m low from 2 s before apogee, decaying over 3 s: at apogee the barometer climbs back at
@@ -736,10 +745,7 @@ def test_a_negative_transient_returning_at_apogee_does_not_hold_the_filter(rocke
     # late. A return's rate decays: its excess over the accelerometer's falls by metres per second
     # in half a second, which a climbing rocket's does not (the accelerometer measures its
     # deceleration). Below 20 m/s such a barometer does not hold the filter: 0.54 and 0.58 s late
-    base = flight(rocket)
-    fl = flight(rocket, Faults(transient_at_s=base.apogee_s - 2.0, transient_m=-150,
-                               transient_rise_s=0.1, transient_decay_s=3.0))
-    out = run(fl, backup_drogue_s=round(fl.apogee_s + 3))
+    out = _transient_before_apogee(rocket, 2.0, -150)
     assert -0.8 <= out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
 
 
@@ -786,10 +792,7 @@ def test_a_negative_transient_returning_at_apogee_does_not_hold_the_acceleromete
     # apogee it climbs back towards the filter at about 80 m/s. Rule 18 holds only a barometer
     # that rises above the filter (or within 10 m below it): this one, far below, does not hold
     # the accelerometer-only apogee (0.7 s late; 2.4 s held through the return)
-    base = flight(SUBSONIC_ROCKET)
-    fl = flight(SUBSONIC_ROCKET, Faults(transient_at_s=base.apogee_s - 0.5, transient_m=-300,
-                                        transient_rise_s=0.1, transient_decay_s=3.0))
-    out = run(fl, backup_drogue_s=round(fl.apogee_s + 3))
+    out = _transient_before_apogee(SUBSONIC_ROCKET, 0.5, -300)
     assert -1.0 <= out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
 
 
