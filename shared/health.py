@@ -110,6 +110,11 @@ class SensorHealth:
         # 27 g motor; judged frozen after accel_stuck_s, it lost the accelerometer for the flight)
         self.max_boost_ms = config.max_boost_ms
         self.baro_rate_max_mmps = config.baro_rate_max_mmps
+        # the path a reading is judged against beside that bound: the climb rate it follows and
+        # the tolerance on it (mm/s; in coast from the barometer's windowed rate, else none: 0
+        # and baro_rate_max_mmps, the same test as the bound's)
+        self.baro_path_mmps = 0
+        self.baro_path_tol_mmps = config.baro_rate_max_mmps
         self.flags = 0
         self.changed = False  # flags changed at this sample
         self.baro_spikes = 0  # count of impossible barometric readings not used
@@ -202,6 +207,17 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
                     elif now_ms - health._spike_run_ms >= _ERRATIC_RUN_MS:
                         health._baro_erratic_ms = now_ms + _ERRATIC_HOLD_MS
                     health.baro_spike_ms = now_ms
+                elif since_ms <= _RATE_DT_MAX_MS:
+                    # in coast, while the barometer agrees with the accelerometer: off the path
+                    # of its own windowed rate (set by the flight computer, D16 rule 19) by more
+                    # than any motion, a pressure pulse (an ejection charge's blast beside it), not
+                    # motion; no sign of a broken part (not counted in a run of impossible readings)
+                    off = alt_mm - health._baro_last - health.baro_path_mmps * since_ms // 1000
+                    if off < 0:
+                        off = -off
+                    if off > health.baro_path_tol_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM:
+                        have &= _HAVE_ACCEL
+                        health.baro_spikes += 1
             if step or not seen:
                 health._baro_run_ms = now_ms
                 moved = True

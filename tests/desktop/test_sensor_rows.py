@@ -132,17 +132,14 @@ def test_layouts_of_the_real_flights_never_fire_early(layout):
     assert _layout_drogue_errors(layout).min() >= -0.30
 
 
-XFAIL_LATE_LAYOUT = pytest.mark.xfail(strict=True, reason=(
-    "with a 20 Hz barometer beside a 100 Hz accelerometer the MegaMetrum flights 058-005 and "
-    "058-006 fire 0.51 and 0.58 s late, 336-002 0.48 s: mean 0.201 s, max 0.58 s against 0.15 / "
-    "0.30 s (docs/BENCHMARKS.md, issue 'Never fooled by one sensor')"))
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("layout", ["bursty", pytest.param("mixed_rate", marks=XFAIL_LATE_LAYOUT),
-                                    "split_rows"])
+@pytest.mark.parametrize("layout", ["bursty", "mixed_rate", "split_rows"])
 def test_layouts_of_the_real_flights_meet_the_accuracy_goal(layout):
-    # every row with both readings (test_replay_altos): mean 0.12 s, max 0.21 s
+    # every row with both readings (test_replay_altos): mean 0.12 s, max 0.21 s. With a 20 Hz
+    # barometer (mixed_rate) the blast of the other board's charge near apogee on 058-005,
+    # 058-006 and 336-002 is one reading 62 to 85 m low: off the path of the barometer's rate, it
+    # is not motion (docs/DESIGN.md D16 rule 19); taken in, it left the barometer out for its
+    # window and the drogue waited 0.48 to 0.58 s for its readmission
     errors = np.abs(_layout_drogue_errors(layout))
     assert errors.max() <= 0.30 and errors.mean() <= 0.15
 
