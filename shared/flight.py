@@ -638,8 +638,6 @@ class FlightComputer:
         self._pulses += 1
         self.events |= EV_DROGUE
         self.state = DROGUE
-        self.health.baro_path_mmps = 0  # (the coast's path ends with it, see _arbitrate)
-        self.health.baro_path_tol_mmps = self.cfg.baro_rate_max_mmps
         self._land_start_ms = self.now_ms
         self._land_min_mm = self._land_max_mm = self.agl_mm
 

@@ -505,6 +505,16 @@ MUTANTS = [
      "_clamp(arb._alt[before] - arb._alt[oldest], _SLOT_STEP_LIMIT_MM) * 1000",
      "(arb._alt[before] - arb._alt[oldest]) * 1000",
      "tests/shared/test_micropython_core.py::test_the_climb_hold_over_a_window_after_a_jump_stays_in_31_bits"),
+    ("baro-path-spike", FLIGHT,
+     "            if state == COAST and arb.valid and arb.baro_consistent:\n"
+     "                path = arb.baro_rate_mmps\n",
+     "            if False:\n                path = arb.baro_rate_mmps\n",
+     ARB_TESTS + "::test_a_pressure_pulse_in_one_reading_is_not_motion"),
+    ("baro-path-spike-in-a-run", HEALTH,
+     "                        health.baro_spikes += 1\n            if step or not seen:",
+     "                        health.baro_spikes += 1\n"
+     "                        health.baro_spike_ms = now_ms\n            if step or not seen:",
+     ARB_TESTS + "::test_real_logs_hold_values_without_a_frozen_flag"),
     ("accel-only-hold-floor", FLIGHT,
      "_BARO_AWAY_MMPS = const(5000)",
      "_BARO_AWAY_MMPS = const(20000)",

@@ -136,7 +136,7 @@ def test_layouts_of_the_real_flights_never_fire_early(layout):
 @pytest.mark.parametrize("layout", ["bursty", "mixed_rate", "split_rows"])
 def test_layouts_of_the_real_flights_meet_the_accuracy_goal(layout):
     # every row with both readings (test_replay_altos): mean 0.12 s, max 0.21 s. With a 20 Hz
-    # barometer (mixed_rate) the blast of the other board's charge near apogee on 058-005,
+    # barometer (mixed_rate) the pressure pulse of 50 to 60 ms just before apogee on 058-005,
     # 058-006 and 336-002 is one reading 62 to 85 m low: off the path of the barometer's rate, it
     # is not motion (docs/DESIGN.md D16 rule 19); taken in, it left the barometer out for its
     # window and the drogue waited 0.48 to 0.58 s for its readmission

@@ -816,7 +816,7 @@ def _pulse_before_apogee(rocket, lead_s, dh_m, baro_hz):
 def test_a_pressure_pulse_in_one_reading_is_not_motion(rocket, dh_m, lead_s):
     # a 20 Hz barometer beside a 100 Hz accelerometer, and one reading 62 to 85 m off shortly
     # before apogee: three real flights in that layout (058-005, 058-006, 336-002) read such a
-    # pressure pulse, 40 to 60 ms long. Within the spike test's 1,500 m/s, taken in, it moved the
+    # pressure pulse, 50 to 60 ms long. Within the spike test's 1,500 m/s, taken in, it moved the
     # barometer's windowed rate by over 100 m/s: the barometer was left out for its window and the
     # drogue waited 0.5 to 0.6 s for it. Off the path of the barometer's own rate by more than any
     # motion while it agrees with the accelerometer, the reading is not used (D16 rule 19).

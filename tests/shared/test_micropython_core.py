@@ -35,6 +35,9 @@ FLIGHTS = {
     "extreme_1000mps": (dict(rate_hz=50, boost_mmps2=981000, burn_ms=1020, after_apogee_s=2,
                              ground_mm=0, alt_noise_mm=3000, seed=14,
                              glitches=[(1000, 30000000), (2000, -30000000)]), 200),
+    # a pressure pulse in coast: one reading 58 m low, within the spike test's 1,500 m/s at
+    # 100 Hz, off the barometer's own path (docs/DESIGN.md D16 rule 19)
+    "pulse": (dict(rate_hz=100, seed=16, glitches=[(1300, -58000)]), 600),
     # a pressure transient 8 s into the coast: +100 m within 0.2 s, decaying over 1.5 s (a
     # barometer-only board sets its ballistic floor: shared/ballistic.py)
     "transient": (dict(rate_hz=100, seed=15, glitches=[
@@ -143,6 +146,7 @@ print(' '.join([str(x) for x in out]))
     ("extreme_1000mps", None),
     ("descent", {"backup_drogue_delay_s": 1, "backup_main_m": 150}),
     ("transient", {"sensors": "baro"}),
+    ("pulse", None),
 ])
 def test_state_machine_heap_locked_and_bit_identical(interp, name, config):
     from tools.bench_step import run_fc_flight
@@ -174,6 +178,20 @@ def test_the_transient_flight_sets_the_ballistic_floor():
         fc.step(d, a, f + 9807, 3)  # (as tools/bench_step.run_fc_loop: both readings)
         held = held or (fc.arb.ballistic.anchored and fc.arb.ballistic.floor_mmps > 0)
     assert held
+
+
+def test_the_pulse_flight_drops_its_pulse_off_the_path():
+    """(So that the heap-locked run above covers rule 19's code: the pulse and its return.)"""
+    from shared.config import load_config
+    from shared.flight import COAST, FlightComputer
+
+    dts, alts, accs = make_flight(**FLIGHTS["pulse"][0])[:3]
+    fc = FlightComputer(load_config({}))
+    for i, (d, a, f) in enumerate(zip(dts, alts, accs, strict=True)):
+        fc.step(d, a, f + 9807, 3)
+        if i == 1300:
+            assert fc.state == COAST and fc.health.baro_spikes == 1
+    assert fc.health.baro_spikes == 2
 
 
 @pytest.mark.parametrize("interp", INTERPRETERS)
