@@ -36,6 +36,9 @@ except ImportError:
 
 
 _SLOT_MS = const(50)  # averaging slot: 5 readings at 100 Hz, 1 at 20 Hz
+# a slot without a reading waits for one this long: slower barometers (10 Hz), and a 20 Hz one
+# whose reading was not used, still fill every slot; a silence longer than this is a gap
+_SLOT_WAIT_MS = const(200)
 _WINDOW_SLOTS = const(10)  # 0.5 s window: a 200 m transient reads as 400 m/s, 6 m noise as ~8 m/s
 # 1.6 s of history: the accelerometer-only velocity is anchored before the barometer's fault was
 # detected (a frozen run is detected after baro_stuck_s, a loss after sensor_lost_s)
@@ -329,7 +332,8 @@ def add_baro(arb, now_ms, alt_mm, fresh):
             d = -_SLOT_STEP_LIMIT_MM
         arb._alt_sum += d
         arb._alt_n += 1
-    return now_ms - arb._slot_start_ms >= _SLOT_MS
+    age_ms = now_ms - arb._slot_start_ms
+    return age_ms >= _SLOT_MS and (arb._alt_n or age_ms >= _SLOT_WAIT_MS)
 
 
 def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2, defer=False):
