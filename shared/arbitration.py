@@ -40,8 +40,9 @@ _SLOT_MS = const(50)  # averaging slot: 5 readings at 100 Hz, 1 at 20 Hz
 # whose reading was not used, still fill every slot; a silence longer than this is a gap
 _SLOT_WAIT_MS = const(200)
 _WINDOW_SLOTS = const(10)  # 0.5 s window: a 200 m transient reads as 400 m/s, 6 m noise as ~8 m/s
-# 1.6 s of history: the accelerometer-only velocity is anchored before the barometer's fault was
-# detected (a frozen run is detected after baro_stuck_s, a loss after sensor_lost_s)
+# 1.6 s of history (at 20 Hz or faster; a slower barometer's slots are longer): the
+# accelerometer-only velocity is anchored before the barometer's fault was detected (a frozen run
+# is detected after baro_stuck_s, a loss after sensor_lost_s)
 _HISTORY_SLOTS = const(32)
 # after an inconsistent window the barometer is consistent again only when every window over this
 # long agrees: a window is this long, so the transient has left it

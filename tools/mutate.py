@@ -515,6 +515,10 @@ MUTANTS = [
      "                        health.baro_spikes += 1\n"
      "                        health.baro_spike_ms = now_ms\n            if step or not seen:",
      ARB_TESTS + "::test_real_logs_hold_values_without_a_frozen_flag"),
+    ("slot-waits-for-a-reading", ARB,
+     "return age_ms >= _SLOT_MS and (arb._alt_n or age_ms >= _SLOT_WAIT_MS)",
+     "return age_ms >= _SLOT_MS",
+     ARB_TESTS + "::test_a_slow_barometer_fills_every_slot"),
     ("accel-only-hold-floor", FLIGHT,
      "_BARO_AWAY_MMPS = const(5000)",
      "_BARO_AWAY_MMPS = const(20000)",

@@ -828,6 +828,25 @@ def test_a_pressure_pulse_in_one_reading_is_not_motion(rocket, dh_m, lead_s):
     assert -0.15 <= out.early_s <= 0.15, "drogue %.2f s before apogee" % out.early_s
 
 
+@pytest.mark.parametrize("baro_hz, dh_m, rise_s, decay_s", [
+    (10, -300, 0.5, 0.0), (10, 300, 0.1, 3.0), (20, 300, 0.1, 3.0)])
+def test_a_slow_barometer_fills_every_slot(baro_hz, dh_m, rise_s, decay_s):
+    # a barometer read at 10 Hz (or at 20 Hz with the transient's first reading left out as off
+    # its path, rule 19) beside a 100 Hz accelerometer, and a transient in mid coast on the
+    # subsonic flight. The arbitration averages readings in slots of 50 ms, and a slot without a
+    # reading left every window over it unjudged: at 10 Hz every second slot, so the barometer was
+    # never judged, and the filter followed a persistent 300 m drop to a drogue 6.8 s early, a
+    # decaying +300 m one 2.2 s early. A slot now waits up to 0.2 s for a reading
+    # (_SLOT_WAIT_MS): measured 0.17 s late, 0.21 and 0.30 s early
+    rocket = SUBSONIC_ROCKET
+    fl = flight(rocket, Faults(transient_at_s=round(0.5 * (rocket.burn_s + flight(rocket).apogee_s), 2),
+                               transient_m=dh_m, transient_rise_s=rise_s, transient_decay_s=decay_s))
+    have = fl.have.copy()
+    have[(np.arange(len(have)) % (100 // baro_hz)) != 0] &= HAVE_ACCEL
+    out = run_with_readings(fl, have=have)
+    assert -1.0 <= out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
+
+
 def test_the_accelerometer_only_apogee_waits_for_the_filters_own_velocity():
     # a double fault beyond the fault model: every second reading 2.8 g low from 3 s on (inside
     # the filter's gate: a mean bias of 1.4 g, fourteen times the bias budget) and the barometer
