@@ -333,8 +333,8 @@ def add_baro(arb, now_ms, alt_mm, fresh):
             d = -_SLOT_STEP_LIMIT_MM
         arb._alt_sum += d
         arb._alt_n += 1
-    age_ms = now_ms - arb._slot_start_ms
-    return age_ms >= _SLOT_MS and (arb._alt_n or age_ms >= _SLOT_WAIT_MS)
+    return now_ms - arb._slot_start_ms >= _SLOT_MS and (
+        arb._alt_n or now_ms - arb._slot_start_ms >= _SLOT_WAIT_MS)
 
 
 def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2, defer=False):

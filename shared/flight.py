@@ -218,7 +218,6 @@ _ACCEL_NOISY_MMPS2 = const(39227)
 # it, held whatever the rate does, the filter may lie too (pulled down before the barometer was
 # left out: seed 6's rocket 206 of the random rockets fired 0.9 s early without that tier)
 _BARO_CLIMB_HOLD_MMPS = const(6000)
-_BARO_PATH_NOISE_MMPS = const(5000)
 _BARO_CLIMB_FAST_MMPS = const(20000)
 # No accelerometer-only apogee while the barometer left out climbs faster than this (plus three
 # times its pad noise) away from the accelerometer-carried filter (D16 rule 18): twice the 0.5 s
@@ -294,6 +293,7 @@ class FlightComputer:
         self.health.start_watch(config)
         # (with the ballistic check of a coast without the accelerometer, D16 rule 10)
         self.arb = Arbitration(config, ballistic.Ballistic(config))
+        self.health.arb = self.arb  # (the path of D16 rule 19)
         self.mode = (MODE_BARO if config.has_baro else 0) | (MODE_ACCEL if config.has_accel else 0)
         self.baro_excluded = False  # coast: the barometer disagrees with the accelerometer's bounds
         # re-take the barometer's altitude at its next reading (after a resume, or the barometer
@@ -1217,21 +1217,6 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
             # of windows half a second long. Under the parachutes the steady descent reads the
             # rate on this sample.
             close_slot(arb, now_ms, kf.vel_q4 >> 4, kf.bias_q4 >> 4, state <= COAST)
-            health = fc.health
-            rate_max = cfg.baro_rate_max_mmps
-            if state == COAST and arb.valid and arb.baro_consistent:
-                path = arb.baro_rate_mmps
-                if path > rate_max:
-                    path = rate_max
-                elif path < -rate_max:
-                    path = -rate_max
-                acc = kf.acc_q4 >> 4
-                tol = (acc if acc > 0 else -acc) // 2 + _BARO_PATH_NOISE_MMPS
-                health.baro_path_mmps = path
-                health.baro_path_tol_mmps = tol if tol < rate_max else rate_max
-            else:
-                health.baro_path_mmps = 0
-                health.baro_path_tol_mmps = rate_max
             if state == PAD and not cfg.has_accel or FAST <= state <= COAST and not fc.health.accel_ok:
                 # the ballistic test of a coast without the accelerometer (shared/ballistic.py;
                 # its noise learnt on a barometer-only board's pad)

@@ -60,6 +60,11 @@ _AGE_LIMIT_MS = const(0x3FFFFFFF)  # ages saturate here (days), inside 31 bits
 # A barometric step larger than baro_rate_max x dt plus this (the filter's 50 m outlier gate) in
 # one sample is a spike; beyond _RATE_DT_MAX_MS (a gap) no rate is judged.
 _SPIKE_ALLOW_MM = const(50000)
+# Off the path of the barometer's windowed rate (D16 rule 19) by more than _SPIKE_ALLOW_MM plus
+# this x the time since the reading before: the window's rate is the velocity of up to 0.35 s
+# ago, and 100 m/s covers its change since under 28 g (a 100 g boost: 34 m at 10 Hz, inside the
+# 50 m), and the rate's noise
+_PATH_TOL_MMPS = const(100000)
 _RATE_DT_MAX_MS = const(200)
 _ONE_G_MMPS2 = const(9807)
 # An accelerometer reading held this long at the flight's largest is clipped (see check_health): five
@@ -110,11 +115,10 @@ class SensorHealth:
         # 27 g motor; judged frozen after accel_stuck_s, it lost the accelerometer for the flight)
         self.max_boost_ms = config.max_boost_ms
         self.baro_rate_max_mmps = config.baro_rate_max_mmps
-        # the path a reading is judged against beside that bound: the climb rate it follows and
-        # the tolerance on it (mm/s; in coast from the barometer's windowed rate, else none: 0
-        # and baro_rate_max_mmps, the same test as the bound's)
-        self.baro_path_mmps = 0
-        self.baro_path_tol_mmps = config.baro_rate_max_mmps
+        # the arbitration (shared/arbitration.py), whose window's rate is the path a reading is
+        # judged against while the barometer agrees with the accelerometer (D16 rule 19); set by
+        # the owner (None: no such test)
+        self.arb = None
         self.flags = 0
         self.changed = False  # flags changed at this sample
         self.baro_spikes = 0  # count of impossible barometric readings not used
@@ -207,15 +211,15 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
                     elif now_ms - health._spike_run_ms >= _ERRATIC_RUN_MS:
                         health._baro_erratic_ms = now_ms + _ERRATIC_HOLD_MS
                     health.baro_spike_ms = now_ms
-                elif since_ms <= _RATE_DT_MAX_MS:
-                    # in coast, while the barometer agrees with the accelerometer: off the path
-                    # of its own windowed rate (set by the flight computer, D16 rule 19) by more
-                    # than any motion, a pressure pulse (an ejection charge's blast beside it), not
-                    # motion; no sign of a broken part (not counted in a run of impossible readings)
-                    off = alt_mm - health._baro_last - health.baro_path_mmps * since_ms // 1000
+                elif since_ms <= _RATE_DT_MAX_MS and health.arb is not None and health.arb.baro_agrees():
+                    # while its last window agreed with the accelerometer's bounds: off the path
+                    # of that window's rate by more than any motion, a pressure pulse, not motion
+                    # (D16 rule 19); no sign of a broken part (not counted in a run of impossible
+                    # readings). (The rate is at most 1 km per 0.5 s: the product stays in 31 bits)
+                    off = alt_mm - health._baro_last - health.arb.baro_rate_mmps * since_ms // 1000
                     if off < 0:
                         off = -off
-                    if off > health.baro_path_tol_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM:
+                    if off > _PATH_TOL_MMPS * since_ms // 1000 + _SPIKE_ALLOW_MM:
                         have &= _HAVE_ACCEL
                         health.baro_spikes += 1
             if step or not seen:
