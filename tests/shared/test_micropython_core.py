@@ -191,7 +191,8 @@ def test_the_pulse_flight_drops_its_pulse_off_the_path():
         fc.step(d, a, f + 9807, 3)
         if i == 1300:
             assert fc.state == COAST and fc.health.baro_spikes == 1
-    assert fc.health.baro_spikes == 1  # (the one after it: the window's judgement due, not judged on the path)
+    # (the reading after it came with the window's judgement due: not judged on the path)
+    assert fc.health.baro_spikes == 1
 
 
 @pytest.mark.parametrize("interp", INTERPRETERS)
