@@ -211,7 +211,8 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
                     elif now_ms - health._spike_run_ms >= _ERRATIC_RUN_MS:
                         health._baro_erratic_ms = now_ms + _ERRATIC_HOLD_MS
                     health.baro_spike_ms = now_ms
-                elif since_ms <= _RATE_DT_MAX_MS and health.arb is not None and health.arb.baro_agrees():
+                elif (since_ms <= _RATE_DT_MAX_MS and health.arb is not None and health.arb.valid
+                      and health.arb.baro_agrees()):
                     # while its last window agreed with the accelerometer's bounds: off the path
                     # of that window's rate by more than any motion, a pressure pulse, not motion
                     # (D16 rule 19); no sign of a broken part (not counted in a run of impossible

@@ -828,6 +828,17 @@ def test_a_pressure_pulse_in_one_reading_is_not_motion(rocket, dh_m, lead_s):
     assert -0.15 <= out.early_s <= 0.15, "drogue %.2f s before apogee" % out.early_s
 
 
+def test_a_pressure_pulse_is_judged_on_its_path_only_beside_an_accelerometer():
+    # rule 19's path is a window the accelerometer's bounds judged: a barometer-only board (no
+    # track) keeps the spike test's 1,500 m/s alone, and a 58 m pulse at 100 Hz is a reading
+    fl = flight(SUBSONIC_ROCKET)
+    alt_mm = fl.alt_mm.copy()
+    alt_mm[int(np.flatnonzero(fl.time_s >= fl.apogee_s - 2.0)[0])] -= 58000
+    both = run_with_readings(fl, alt_mm=alt_mm)
+    baro = run(dataclasses.replace(fl, alt_mm=alt_mm), "baro", backup_drogue_s=round(fl.apogee_s + 3))
+    assert both.fc.health.baro_spikes >= 1 and baro.fc.health.baro_spikes == 0  # (its return too)
+
+
 @pytest.mark.parametrize("baro_hz, dh_m, rise_s, decay_s", [
     (10, -300, 0.5, 0.0), (10, 300, 0.1, 3.0), (20, 300, 0.1, 3.0)])
 def test_a_slow_barometer_fills_every_slot(baro_hz, dh_m, rise_s, decay_s):
