@@ -772,6 +772,31 @@ def test_the_climb_holds_read_a_window_only_when_judged():
     assert not climbs_fast(arb, 5000) and not arb.climbs_away(1000 * 4, 5000)
 
 
+def test_the_barometer_agrees_only_on_a_current_judged_window():
+    # Arbitration.baro_agrees, the barometer's say on an ignition (D19) and the path of D16 rule
+    # 19: the newest window judged and agreeing, its judgement not deferred to the next sample,
+    # and no slot of it without a reading (a silence longer than the 0.2 s a slot waits)
+    arb = Arbitration(load_config({}))
+    arb.start(0)
+    now_ms = 0
+    for k in range(100):  # climbing at 40 m/s for 1 s, a reading every 10 ms, the track agreeing
+        now_ms += 10
+        integrate(arb, 10, 0, 9807, False)
+        arb.vel_mmps = 40000
+        if add_baro(arb, now_ms, 400 * k, True):
+            close_slot(arb, now_ms, 40000, 0, defer=k % 20 == 19)
+            if arb.judge_due and k < 99:
+                judge_late(arb)
+    assert arb.judge_due and arb.baro_consistent and not arb.baro_agrees()  # deferred
+    judge_late(arb)
+    assert arb.baro_agrees()
+    for _ in range(25):  # a silence: a slot closes without a reading
+        now_ms += 10
+        if add_baro(arb, now_ms, 0, False):
+            close_slot(arb, now_ms, 40000, 0)
+    assert arb.baro_consistent and not arb.baro_agrees()
+
+
 def test_no_accelerometer_only_apogee_while_the_barometer_climbs_away():
     # three times the specific force from 0.5 s after burnout on the subsonic flight: the track
     # reads about 2 g too much drag, the barometer is left out as inconsistent (alive, reading
