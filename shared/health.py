@@ -199,8 +199,9 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
             # multiply and a division, only for a larger one)
             if in_flight and seen and step > _SPIKE_ALLOW_MM:
                 since_ms = now_ms - health._baro_fresh_ms
-                if (since_ms <= _RATE_DT_MAX_MS
-                        and step > health.baro_rate_max_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM):
+                if since_ms > _RATE_DT_MAX_MS:
+                    pass  # a gap: no rate judged
+                elif step > health.baro_rate_max_mmps * since_ms // 1000 + _SPIKE_ALLOW_MM:
                     have &= _HAVE_ACCEL
                     health.baro_spikes += 1
                     # impossible readings for _ERRATIC_RUN_MS in a row are a broken part, and one
@@ -211,8 +212,7 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
                     elif now_ms - health._spike_run_ms >= _ERRATIC_RUN_MS:
                         health._baro_erratic_ms = now_ms + _ERRATIC_HOLD_MS
                     health.baro_spike_ms = now_ms
-                elif (since_ms <= _RATE_DT_MAX_MS and health.arb is not None and health.arb.valid
-                      and health.arb.baro_agrees()):
+                elif health.arb is not None and health.arb.valid and health.arb.baro_agrees():
                     # while its last window agreed with the accelerometer's bounds: off the path
                     # of that window's rate by more than any motion, a pressure pulse, not motion
                     # (D16 rule 19); no sign of a broken part (not counted in a run of impossible
