@@ -12,7 +12,6 @@ one reading; slots that wait"). The backup timer at nominal apogee + 3 s, as doc
 """
 
 import argparse
-import dataclasses
 import itertools
 import json
 import sys
@@ -23,8 +22,15 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from shared.detector import HAVE_ACCEL  # noqa: E402
-from tests.support.fault_flight import MACH_ROCKET, SUBSONIC_ROCKET, Faults, Rocket, fly, run  # noqa: E402
+from tests.support.fault_flight import (  # noqa: E402
+    MACH_ROCKET,
+    SUBSONIC_ROCKET,
+    Faults,
+    Rocket,
+    fly,
+    run,
+    slow_barometer,
+)
 
 ROCKETS = {"mach1.0": SUBSONIC_ROCKET, "mach1.65": Rocket(thrust_n=480.0, burn_s=1.8, prop_kg=0.3),
            "mach2.4": MACH_ROCKET}
@@ -39,13 +45,6 @@ LATE_S = 1.0
 def onsets_s(rocket, apogee_s):
     """When the transients begin: just after burnout, mid coast, 2 s and 0.5 s before apogee."""
     return (rocket.burn_s + 0.3, 0.5 * (rocket.burn_s + apogee_s), apogee_s - 2.0, apogee_s - 0.5)
-
-
-def slow_barometer(flight, rate_hz):
-    """``flight`` with its barometer read at ``rate_hz`` only (every reading of a 100 Hz record)."""
-    have = flight.have.copy()
-    have[(np.arange(len(have)) % (100 // rate_hz)) != 0] &= HAVE_ACCEL
-    return dataclasses.replace(flight, have=have)
 
 
 def runs(rockets, rates_hz, progress=None):

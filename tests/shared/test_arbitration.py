@@ -38,6 +38,7 @@ from tests.support.fault_flight import (
     first_bound_miss,
     fly,
     run,
+    slow_barometer,
 )
 
 MACH14_ROCKET = Rocket(thrust_n=480.0, burn_s=1.8, prop_kg=0.3)  # about Mach 1.65
@@ -825,15 +826,12 @@ def test_a_negative_transient_returning_at_apogee_does_not_hold_the_acceleromete
 def _pulse_before_apogee(rocket, lead_s, dh_m, baro_hz):
     """The flight with its barometer read at ``baro_hz`` and the one reading nearest ``lead_s``
     before apogee ``dh_m`` off (a pressure pulse shorter than the barometer's period)."""
-    fl = flight(rocket)
-    have = fl.have.copy()
-    read = (np.arange(len(have)) % (100 // baro_hz)) == 0
-    have[~read] &= HAVE_ACCEL
+    fl = slow_barometer(flight(rocket), baro_hz)
     alt_mm = fl.alt_mm.copy()
-    i = int(np.flatnonzero(read & (fl.time_s >= fl.apogee_s - lead_s))[0])
+    i = int(np.flatnonzero((fl.have & HAVE_BARO != 0) & (fl.time_s >= fl.apogee_s - lead_s))[0])
     alt_mm[i] += int(dh_m * 1000)
     # (a board mounted on the axis: bounds as tight as on those flights' short climbs)
-    return run_with_readings(fl, config={"accel_tilt_max_deg": 10}, alt_mm=alt_mm, have=have)
+    return run_with_readings(fl, config={"accel_tilt_max_deg": 10}, alt_mm=alt_mm)
 
 
 @pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH14_ROCKET], ids=["mach1.0", "mach1.65"])
@@ -877,9 +875,7 @@ def test_a_slow_barometer_fills_every_slot(baro_hz, dh_m, rise_s, decay_s):
     rocket = SUBSONIC_ROCKET
     fl = flight(rocket, Faults(transient_at_s=round(0.5 * (rocket.burn_s + flight(rocket).apogee_s), 2),
                                transient_m=dh_m, transient_rise_s=rise_s, transient_decay_s=decay_s))
-    have = fl.have.copy()
-    have[(np.arange(len(have)) % (100 // baro_hz)) != 0] &= HAVE_ACCEL
-    out = run_with_readings(fl, have=have)
+    out = run_with_readings(slow_barometer(fl, baro_hz))
     assert -1.0 <= out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
 
 

@@ -15,6 +15,7 @@ the board would, with the faults of issue 13 injected from physics rather than f
 ``fly()`` returns integer board readings (dt_us, alt_mm, accel_mmps2, have) and the truth.
 """
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -247,6 +248,14 @@ def first_bound_miss(flight, slack_mmps=500):
             if not arb.lower_mmps() - slack_mmps <= v <= arb.upper_mmps() + slack_mmps:
                 return float(flight.time_s[i]), v, arb.lower_mmps(), arb.upper_mmps()
     return None
+
+
+def slow_barometer(flight, rate_hz):
+    """``flight`` with its barometer read at ``rate_hz`` only: one reading in every 100 / rate_hz
+    of its 100 Hz record (the accelerometer keeps every reading)."""
+    have = flight.have.copy()
+    have[(np.arange(len(have)) % (100 // rate_hz)) != 0] &= HAVE_ACCEL
+    return dataclasses.replace(flight, have=have)
 
 
 def run(flight, sensors="both", **config):

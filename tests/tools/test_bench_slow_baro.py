@@ -1,16 +1,17 @@
-"""tools/bench_slow_baro.py: the slow barometer's record and the summary's counts."""
+"""tools/bench_slow_baro.py: the slow barometer's record (tests/support/fault_flight.py) and the
+summary's counts."""
 
 import numpy as np
 
 from shared.detector import HAVE_ACCEL, HAVE_BARO
-from tests.support.fault_flight import SUBSONIC_ROCKET, Faults, fly
+from tests.support.fault_flight import SUBSONIC_ROCKET, Faults, fly, slow_barometer
 from tools import bench_slow_baro
 
 
 def test_a_slow_barometer_keeps_every_accelerometer_reading_and_one_barometric_in_n():
     flight = fly(SUBSONIC_ROCKET, Faults())
     for hz, n in ((20, 5), (10, 10)):
-        have = bench_slow_baro.slow_barometer(flight, hz).have
+        have = slow_barometer(flight, hz).have
         assert np.all(have & HAVE_ACCEL == flight.have & HAVE_ACCEL)
         baro = np.flatnonzero(have & HAVE_BARO)
         assert np.all(np.diff(baro) == n) and baro[0] == 0
