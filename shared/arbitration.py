@@ -51,10 +51,14 @@ _ACC_LIMIT = const(0xFFFFF)  # 2**20 - 1 mm/s^2 (107 g): keeps acc x dt_ms (<= 1
 _DT_LIMIT_MS = const(1000)
 _SLOT_STEP_LIMIT_MM = const(0xFFFFF)  # 2**20 - 1 mm (1 km) from the previous slot: sums in 31 bits
 _VEL_LIMIT_MMPS = const(0x3FFFFF)  # 2**22 - 1 mm/s (4 km/s)
-# the dead-reckoned velocity's bias term: |bias| < 2**15 mm/s^2 (3.3 g, beyond any bias limit the
-# configuration allows) times at most 300 s in centiseconds stays inside 31 bits
+# the filter's bias estimate kept in the history: |bias| < 2**15 mm/s^2 (3.3 g, beyond any bias
+# limit the configuration allows), so that bias x 4096 stays inside 31 bits (set_anchor)
 _DR_BIAS_LIMIT = const(0x7FFF)
-_DR_LIMIT_CS = const(30000)
+# the dead reckoning's scale correction (set_anchor): at most a quarter of the track's change (a
+# datasheet scale error of 10 % plus a 30 degree tilt's 13 %), so that the track's change (< 2**23
+# mm/s) / 16 x the Q12 fraction stays inside 31 bits
+_DR_SCALE_LIMIT_Q12 = const(1024)
+_TRACK_CHANGE_LIMIT_MMPS = const(0xFFFFF)  # 2**20 - 1 mm/s: x 100 stays inside 31 bits
 # The change test (``_judge``): the barometer's rate minus the track's, from one window to the
 # window that ended _WINDOW_SLOTS earlier. Its noise is learnt while the test holds: the mean
 # absolute change over about 2 s of windows (1/_CHANGE_AVG_N per judgement, 20 per second), and
@@ -129,7 +133,7 @@ class Arbitration:
         self.anchor_track_mmps = 0
         self.anchor_margin_mmps = 0
         self.anchor_ms = 0
-        self.anchor_bias_mmps2 = 0
+        self.anchor_scale_q12 = 0
         self.anchored = False  # an anchor is set and the barometer has not agreed since
         self.baro_consistent = True
         self.baro_rate_mmps = 0  # last windowed barometric climb rate
@@ -214,8 +218,10 @@ class Arbitration:
     def set_anchor(self):
         """The barometer is no longer usable: anchor the accelerometer-only velocity at the
         oldest slot of the history (before a frozen run, a loss or a transient was detected):
-        the filter's velocity then, the track's velocity and margin then, and the filter's
-        estimate of the accelerometer's bias then (mm/s^2: before the fault could corrupt it)."""
+        the filter's velocity then, the track's velocity and margin then, and the share of the
+        track's acceleration that is the accelerometer's error: the filter's estimate of its bias
+        then (before the fault could corrupt it) over the track's deceleration in the window
+        after the anchor (Q12, within +-_DR_SCALE_LIMIT_Q12; 0 without a coasting window)."""
         if self.judge_due:  # it may clear ``anchored``: first, as when it is not deferred
             judge_late(self)
         i = self._head + 1 if self._slots == _HISTORY_SLOTS else self._head - self._slots + 1
@@ -227,18 +233,25 @@ class Arbitration:
         self.anchor_track_mmps = self._vel[i]
         self.anchor_margin_mmps = self._margin[i]
         self.anchor_ms = self._t[i]
-        self.anchor_bias_mmps2 = self._fbias[i]
+        self.anchor_scale_q12 = 0
+        decel = window_decel_mmps2(self, i)
+        # a share only where the track decelerates as a coast does (at least g / 2: it reads g
+        # plus the drag, scaled by the part's error)
+        if decel > _G_MMPS2 // 2:
+            self.anchor_scale_q12 = _clamp(-self._fbias[i] * 4096 // decel, _DR_SCALE_LIMIT_Q12)
         self.anchored = True
 
-    def dead_reckoned_mmps(self, now_ms):
+    def dead_reckoned_mmps(self):
         """The filter's velocity at the anchor carried forward by the accelerometer alone: the
-        track's change since, less the bias the filter had estimated then (its best account of the
-        accelerometer's error, far tighter in practice than the worst-case margin)."""
-        dt_cs = (now_ms - self.anchor_ms) // 10  # centiseconds: bias x time stays in 31 bits
-        if dt_cs > _DR_LIMIT_CS:
-            dt_cs = _DR_LIMIT_CS
-        return (self.anchor_filter_mmps + self.vel_mmps - self.anchor_track_mmps
-                - self.anchor_bias_mmps2 * dt_cs // 100)
+        track's change since, less the share of it that the filter's bias estimate at the anchor
+        says is the accelerometer's error (its best account of that error, far tighter in
+        practice than the worst-case margin). After the pad calibration the part's error is its
+        scale error (and a tilt's) times what it reads: in coast it shrinks with the drag, so
+        it is carried as a share of the track's change, not as a constant (docs/DESIGN.md D16
+        rule 7)."""
+        change = self.vel_mmps - self.anchor_track_mmps
+        return (self.anchor_filter_mmps + change
+                - ((change >> 4) * self.anchor_scale_q12 >> 8))
 
     def anchored_upper_mmps(self):
         """Highest vertical velocity: the filter's at the anchor plus the track's change since,
@@ -318,6 +331,20 @@ def integrate(arb, dt_ms, acc_kin_mmps2, specific_mmps2, clipped, restart=False)
     um = margin_um + (arb.bias_max_mmps2 + (arb.tilt_loss_1024 * size >> 10)) * dt_ms
     arb.margin_mmps = margin + um // 1000
     arb._margin_um = um % 1000
+
+
+def window_decel_mmps2(arb, i):
+    """The track's mean deceleration (mm/s^2) over the window that begins at history slot ``i``;
+    0 while the history holds no such window."""
+    if arb._slots <= _WINDOW_SLOTS:
+        return 0
+    j = i + _WINDOW_SLOTS
+    if j >= _HISTORY_SLOTS:
+        j -= _HISTORY_SLOTS
+    dt_cs = (arb._t[j] - arb._t[i]) // 10
+    if dt_cs <= 0:
+        return 0
+    return -_clamp(arb._vel[j] - arb._vel[i], _TRACK_CHANGE_LIMIT_MMPS) * 100 // dt_cs
 
 
 def add_baro(arb, now_ms, alt_mm, fresh):

@@ -39,7 +39,7 @@ except ImportError:
     def const(x):
         return x
 
-from shared.arbitration import _clamp  # (the arbitration's: x within +-limit)
+from shared.arbitration import _clamp, window_decel_mmps2  # (_clamp: x within +-limit)
 from shared.physics import G_MMPS2
 
 # The learnt noise is the mean |r0 - 2 r1 + r2|: about 2 standard deviations of one window's rate
@@ -226,15 +226,10 @@ def set_from_track(bal, arb, now_ms):
     i = arb._head + 1
     if i >= len(t):
         i = 0
-    j = i + _WINDOW_SLOTS
-    if j >= len(t):
-        j -= len(t)
-    dt_cs = (t[j] - t[i]) // 10
     v = arb.anchor_filter_mmps
-    if dt_cs <= 0 or v <= 0:
+    if v <= 0:
         return
-    drag = (-_clamp(arb._vel[j] - arb._vel[i], _CHANGE_LIMIT_MMPS) * 100 // dt_cs
-            + arb.anchor_bias_mmps2 - G_MMPS2)
+    drag = window_decel_mmps2(arb, i) + arb._fbias[i] - G_MMPS2
     speed = v // 1000
     bal.speed2 = speed * speed if speed > 0 else 1
     _set_floor(bal, v - _ANCHOR_MARGIN_MMPS, drag, arb.anchor_ms, now_ms)

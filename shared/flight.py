@@ -804,7 +804,7 @@ def _apogee_enabled(fc, cfg, now_ms):
             and now_ms - fc.launch_ms >= cfg.apogee_lockout_ms
             and fc.agl_mm >= cfg.proof_climb_mm
             and not (fc._dead_reckoning and arb.valid
-                     and arb.dead_reckoned_mmps(now_ms) > cfg.dead_reckoning_guard_mmps)
+                     and arb.dead_reckoned_mmps() > cfg.dead_reckoning_guard_mmps)
             and cfg.coast_decel_mmps2 << 4 <= -fc.acc_avg_q4 <= _APOGEE_DECEL_MAX_MMPS2 << 4
             and (fc.coast_measured or not accel_ok)
             # without the accelerometer (D16 rule 5): the filter tracks the barometer, within 2 g
