@@ -96,7 +96,6 @@ class SensorHealth:
         self._early_clip_mmps2 = config.accel_limit_mmps2 >> 1
         self.lost_ms = config.sensor_lost_ms
         self.accel_clipped = 0  # count of clipped accelerometer readings
-        self.baro_out_of_range = 0  # count of barometric readings outside the table
         self.clipped = False  # this sample's accelerometer reading was clipped
         self.baro_age_ms = 0  # time since the last usable reading
         self.accel_age_ms = 0
@@ -175,7 +174,6 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
     have &= board
     if have & _HAVE_BARO and (alt_mm >= ALT_TOP_MM or alt_mm <= ALT_BOTTOM_MM):
         have &= _HAVE_ACCEL  # an out-of-range pressure is not a reading
-        health.baro_out_of_range += 1
     limit = health.accel_limit_mmps2
     clipped = False
     if have & _HAVE_ACCEL and limit and (accel_mmps2 >= limit or accel_mmps2 <= -limit):
