@@ -122,6 +122,7 @@ class SensorHealth:
         self.changed = False  # flags changed at this sample
         self.baro_spikes = 0  # count of impossible barometric readings not used
         self.baro_spike_ms = -_AGE_LIMIT_MS  # when the last one came
+        self.baro_pulse_ms = -_AGE_LIMIT_MS  # when the last reading off the path (rule 19) came
         self._spike_run_ms = 0  # when the current run of impossible readings began
         self._baro_erratic_ms = -_AGE_LIMIT_MS  # no barometric reading is used before this
         self.baro_moved = False  # this sample's barometric reading differs from the previous one
@@ -210,17 +211,22 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
                     elif now_ms - health._spike_run_ms >= _ERRATIC_RUN_MS:
                         health._baro_erratic_ms = now_ms + _ERRATIC_HOLD_MS
                     health.baro_spike_ms = now_ms
-                elif health.arb is not None and health.arb.valid and health.arb.baro_agrees():
+                elif (health.arb is not None and health.arb.valid and health.arb.baro_agrees()
+                      and health.baro_pulse_ms != health._baro_fresh_ms):
                     # while its last window agreed with the accelerometer's bounds: off the path
                     # of that window's rate by more than any motion, a pressure pulse, not motion
                     # (D16 rule 19); no sign of a broken part (not counted in a run of impossible
-                    # readings). (The rate is at most 1 km per 0.5 s: the product stays in 31 bits)
+                    # readings). A pulse is one reading: the next one off the path too is a step,
+                    # used, so that the arbitration judges it (two left out at 10 Hz emptied a
+                    # slot, and its windows went unjudged through the step).
+                    # (The rate is at most 1 km per 0.5 s: the product stays in 31 bits)
                     off = alt_mm - health._baro_last - health.arb.baro_rate_mmps * since_ms // 1000
                     if off < 0:
                         off = -off
                     if off > _PATH_TOL_MMPS * since_ms // 1000 + _SPIKE_ALLOW_MM:
                         have &= _HAVE_ACCEL
                         health.baro_spikes += 1
+                        health.baro_pulse_ms = now_ms
             if step or not seen:
                 health._baro_run_ms = now_ms
                 moved = True

@@ -912,6 +912,22 @@ def test_a_slow_barometer_fills_every_slot(baro_hz, dh_m, rise_s, decay_s):
     assert -1.0 <= out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
 
 
+def test_a_pressure_pulse_is_one_reading_the_next_off_the_path_is_a_step():
+    # a barometer read at 10 Hz beside a 100 Hz accelerometer, and +300 m within 0.3 s in mid coast
+    # on the subsonic flight, decaying over 3 s: three readings 100 m apart. Rule 19 left out the
+    # first as a pulse off the path, and the second too (the window still agreed): the slot closed
+    # empty, every window over it went unjudged for a second, the step was never judged, and the
+    # filter followed the decay to a drogue 2.22 s early. A pulse is one reading: the next one
+    # off the path is used, the arbitration judges the step and leaves the barometer out
+    # (measured: 0.21 s early)
+    rocket = SUBSONIC_ROCKET
+    fl = flight(rocket, Faults(transient_at_s=round(0.5 * (rocket.burn_s + flight(rocket).apogee_s), 2),
+                               transient_m=300.0, transient_rise_s=0.3, transient_decay_s=3.0))
+    out = run_with_readings(slow_barometer(fl, 10))
+    assert any(m == MODE_ACCEL for _, _, m, _ in out.events)  # the barometer left out
+    assert out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
+
+
 def test_the_accelerometer_only_apogee_waits_for_the_filters_own_velocity():
     # a double fault beyond the fault model: every second reading 2.8 g low from 3 s on (inside
     # the filter's gate: a mean bias of 1.4 g, fourteen times the bias budget) and the barometer
