@@ -895,6 +895,15 @@ def test_a_pressure_pulse_is_judged_on_its_path_only_beside_an_accelerometer():
     assert both.fc.health.baro_spikes >= 1 and baro.fc.health.baro_spikes == 0  # (its return too)
 
 
+def _mid_coast_transient_on_a_slow_barometer(baro_hz, dh_m, rise_s, decay_s):
+    """The subsonic flight with a transient in mid coast (``dh_m`` within ``rise_s``, decaying over
+    ``decay_s``), its barometer read at ``baro_hz`` beside the 100 Hz accelerometer."""
+    rocket = SUBSONIC_ROCKET
+    fl = flight(rocket, Faults(transient_at_s=round(0.5 * (rocket.burn_s + flight(rocket).apogee_s), 2),
+                               transient_m=dh_m, transient_rise_s=rise_s, transient_decay_s=decay_s))
+    return run_with_readings(slow_barometer(fl, baro_hz))
+
+
 @pytest.mark.parametrize("baro_hz, dh_m, rise_s, decay_s", [
     (10, -300, 0.5, 0.0), (10, 300, 0.1, 3.0), (20, 300, 0.1, 3.0)])
 def test_a_slow_barometer_fills_every_slot(baro_hz, dh_m, rise_s, decay_s):
@@ -905,10 +914,7 @@ def test_a_slow_barometer_fills_every_slot(baro_hz, dh_m, rise_s, decay_s):
     # never judged, and the filter followed a persistent 300 m drop to a drogue 6.8 s early, a
     # decaying +300 m one 2.2 s early. A slot now waits up to 0.2 s for a reading
     # (_SLOT_WAIT_MS): measured 0.17 s late, 0.21 and 0.30 s early
-    rocket = SUBSONIC_ROCKET
-    fl = flight(rocket, Faults(transient_at_s=round(0.5 * (rocket.burn_s + flight(rocket).apogee_s), 2),
-                               transient_m=dh_m, transient_rise_s=rise_s, transient_decay_s=decay_s))
-    out = run_with_readings(slow_barometer(fl, baro_hz))
+    out = _mid_coast_transient_on_a_slow_barometer(baro_hz, dh_m, rise_s, decay_s)
     assert -1.0 <= out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
 
 
@@ -920,10 +926,7 @@ def test_a_pressure_pulse_is_one_reading_the_next_off_the_path_is_a_step():
     # filter followed the decay to a drogue 2.22 s early. A pulse is one reading: the next one
     # off the path is used, the arbitration judges the step and leaves the barometer out
     # (measured: 0.21 s early)
-    rocket = SUBSONIC_ROCKET
-    fl = flight(rocket, Faults(transient_at_s=round(0.5 * (rocket.burn_s + flight(rocket).apogee_s), 2),
-                               transient_m=300.0, transient_rise_s=0.3, transient_decay_s=3.0))
-    out = run_with_readings(slow_barometer(fl, 10))
+    out = _mid_coast_transient_on_a_slow_barometer(10, 300.0, 0.3, 3.0)
     assert any(m == MODE_ACCEL for _, _, m, _ in out.events)  # the barometer left out
     assert out.early_s <= EARLY_LIMIT_S, "drogue %.2f s before apogee" % out.early_s
 
