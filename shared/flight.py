@@ -538,11 +538,19 @@ class FlightComputer:
                 # velocity swings through the linear filter's transient, no measurement of the
                 # motion (a 290 m transient in mid coast: +150 m/s, then zero at 50 m/s climbing)
                 filter_decides = False
-            if filter_decides and now_ms - self.baro_back_ms < cfg.baro_settle_ms:
+            if filter_decides and (now_ms - self.baro_back_ms < cfg.baro_settle_ms
+                                   or self.baro_back_ms >= 0 and kf.bias_q4 >= kf.bias_limit_q4
+                                   and self.arb.upper_valid
+                                   and self.arb.dead_reckoned_mmps() > cfg.dead_reckoning_guard_mmps):
                 # nor for baro_settle_s after the barometer came back reading slower than the
                 # accelerometer carries the velocity on (baro_back_ms, _arbitrate): a transient's
                 # decay, taken back inside the tolerance, lies on the early side, and the filter
-                # follows it through zero (docs/DESIGN.md D16 rule 9). Unless the filter already
+                # follows it through zero (docs/DESIGN.md D16 rule 9). Nor after that, once it came
+                # back so in this flight (baro_back_ms at boot is negative), while the filter
+                # blames the accelerometer for all the error it can have on the side that drops
+                # the velocity (its bias estimate at its upper bound) and the accelerometer's own
+                # account (rule 7's dead reckoning; not after a clip) says the rocket still climbs:
+                # an exponential decay lies for seconds after the wait. Unless the filter already
                 # descends faster than that tolerance, or the dead-reckoning guard (rule 7)
                 # holds the apogee until the accelerometer's own estimate says apogee
                 filter_decides = health.accel_ok and (
