@@ -59,6 +59,24 @@ _DR_BIAS_LIMIT = const(0x7FFF)
 # mm/s) / 16 x the Q12 fraction stays inside 31 bits
 _DR_SCALE_LIMIT_Q12 = const(1024)
 _TRACK_CHANGE_LIMIT_MMPS = const(0xFFFFF)  # 2**20 - 1 mm/s: x 100 stays inside 31 bits
+# The dead reckoning (``Arbitration.dr``, set_anchor): its anchor's velocity (mm/s) and the track's
+# velocity then (mm/s), the share of the track's change that is the accelerometer's error (Q12),
+# and the reference for the accelerometer's calibration against the barometer in the coast
+# (``note_reference``): a window's barometric rate minus the track's, and the track's (mm/s;
+# _NO_REF: none)
+_DR_VEL = const(0)
+_DR_TRACK = const(1)
+_DR_SCALE = const(2)
+_DR_REF_DIFF = const(3)
+_DR_REF_TRACK = const(4)
+_NO_REF = const(-0x3FFFFFFF)
+# The calibration needs the track to change by this much between the reference and the anchor: a
+# window's rate is known to a few tenths of a m/s on the parts in docs/SENSORS.md, so the scale to
+# a few per cent
+_DR_CAL_MIN_MMPS = const(10000)
+# a barometric rate minus the track's, taken into the calibration's share at most this large
+# (262 m/s), so that it x 4096 stays inside 31 bits
+_DR_DIFF_LIMIT_MMPS = const(0x3FFFF)
 # The change test (``_judge``): the barometer's rate minus the track's, from one window to the
 # window that ended _WINDOW_SLOTS earlier. Its noise is learnt while the test holds: the mean
 # absolute change over about 2 s of windows (1/_CHANGE_AVG_N per judgement, 20 per second), and
@@ -133,7 +151,9 @@ class Arbitration:
         self.anchor_track_mmps = 0
         self.anchor_margin_mmps = 0
         self.anchor_ms = 0
-        self.anchor_scale_q12 = 0
+        # the dead reckoning: _DR_VEL ... _DR_REF_TRACK (a short name: the attribute table of this
+        # object is on every sample's path, and this one measured fastest on the Cortex-M0)
+        self.dr = array("i", [0, 0, 0, 0, _NO_REF])
         self.anchored = False  # an anchor is set and the barometer has not agreed since
         self.baro_consistent = True
         self.baro_rate_mmps = 0  # last windowed barometric climb rate
@@ -215,13 +235,19 @@ class Arbitration:
         """The highest vertical velocity the accelerometer allows."""
         return self.vel_mmps + self.margin_mmps + self.upper_extra_mmps
 
-    def set_anchor(self):
+    def set_anchor(self, clean, kept):
         """The barometer is no longer usable: anchor the accelerometer-only velocity at the
-        oldest slot of the history (before a frozen run, a loss or a transient was detected):
-        the filter's velocity then, the track's velocity and margin then, and the share of the
-        track's acceleration that is the accelerometer's error: the filter's estimate of its bias
-        then (before the fault could corrupt it) over the track's deceleration in the window
-        after the anchor (Q12, within +-_DR_SCALE_LIMIT_Q12; 0 without a coasting window)."""
+        oldest slot of the history (before a frozen run, a loss or a transient was detected): the
+        filter's velocity then, and the track's velocity and margin then.
+
+        The dead reckoning (rule 7's guard) takes its own anchor there too, unless one is
+        ``kept`` (set at an exclusion that ended a ``clean`` run: the barometer in use in coast
+        for the flight computer's _ANCHORED_MS; a later exclusion's history may hold the last
+        one's decay). After a clean run it is calibrated against the barometer (``_calibrate``);
+        otherwise it is the filter's velocity with the share of the track's change that the
+        filter's bias estimate then blames on the accelerometer: that estimate over the track's
+        deceleration in the window after the anchor (Q12, within +-_DR_SCALE_LIMIT_Q12; 0
+        without a coasting window)."""
         if self.judge_due:  # it may clear ``anchored``: first, as when it is not deferred
             judge_late(self)
         i = self._head + 1 if self._slots == _HISTORY_SLOTS else self._head - self._slots + 1
@@ -233,25 +259,30 @@ class Arbitration:
         self.anchor_track_mmps = self._vel[i]
         self.anchor_margin_mmps = self._margin[i]
         self.anchor_ms = self._t[i]
-        self.anchor_scale_q12 = 0
-        decel = window_decel_mmps2(self, i)
-        # a share only where the track decelerates as a coast does (at least g / 2: it reads g
-        # plus the drag, scaled by the part's error)
-        if decel > _G_MMPS2 // 2:
-            self.anchor_scale_q12 = _clamp(-self._fbias[i] * 4096 // decel, _DR_SCALE_LIMIT_Q12)
         self.anchored = True
+        dr = self.dr
+        if clean or not kept:
+            dr[_DR_VEL] = self._fvel[i]
+            dr[_DR_TRACK] = self._vel[i]
+            dr[_DR_SCALE] = 0
+            decel = window_decel_mmps2(self, i)
+            # a share only where the track decelerates as a coast does (at least g / 2: it reads
+            # g plus the drag, scaled by the part's error)
+            if decel > _G_MMPS2 // 2:
+                dr[_DR_SCALE] = _clamp(-self._fbias[i] * 4096 // decel, _DR_SCALE_LIMIT_Q12)
+            if clean:
+                _calibrate(self, i, dr)
+        dr[_DR_REF_TRACK] = _NO_REF  # the next clean run takes its own reference
 
     def dead_reckoned_mmps(self):
-        """The filter's velocity at the anchor carried forward by the accelerometer alone: the
-        track's change since, less the share of it that the filter's bias estimate at the anchor
-        says is the accelerometer's error (its best account of that error, far tighter in
-        practice than the worst-case margin). After the pad calibration the part's error is its
-        scale error (and a tilt's) times what it reads: in coast it shrinks with the drag, so
-        it is carried as a share of the track's change, not as a constant (docs/DESIGN.md D16
-        rule 7)."""
-        change = self.vel_mmps - self.anchor_track_mmps
-        return (self.anchor_filter_mmps + change
-                - ((change >> 4) * self.anchor_scale_q12 >> 8))
+        """The velocity at the dead reckoning's anchor carried forward by the accelerometer
+        alone: the track's change since, less the share of it that is the accelerometer's error.
+        After the pad calibration the part's error is its scale error (and a tilt's) times what
+        it reads: in coast it shrinks with the drag, so it is carried as a share of the track's
+        change, not as a constant (docs/DESIGN.md D16 rule 7)."""
+        dr = self.dr
+        change = self.vel_mmps - dr[_DR_TRACK]
+        return dr[_DR_VEL] + change - ((change >> 4) * dr[_DR_SCALE] >> 8)
 
     def anchored_upper_mmps(self):
         """Highest vertical velocity: the filter's at the anchor plus the track's change since,
@@ -331,6 +362,51 @@ def integrate(arb, dt_ms, acc_kin_mmps2, specific_mmps2, clipped, restart=False)
     um = margin_um + (arb.bias_max_mmps2 + (arb.tilt_loss_1024 * size >> 10)) * dt_ms
     arb.margin_mmps = margin + um // 1000
     arb._margin_um = um % 1000
+
+
+def note_reference(arb):
+    """The reference of the accelerometer's calibration in this run of the barometer in use in
+    coast (the flight computer calls it once, _DR_REF_MS into the run): the newest judged
+    window's barometric rate minus the track's, and the track's; none if it was not judged."""
+    dr = arb.dr
+    i = arb._head
+    if arb.judge_due:  # the newest window's judgement waits for the next sample: the one before
+        i = i - 1 if i else _HISTORY_SLOTS - 1
+    diff = arb._diff[i]
+    if diff != _NO_DIFF:
+        dr[_DR_REF_DIFF] = diff
+        dr[_DR_REF_TRACK] = arb.baro_rate_mmps - diff
+
+
+def _calibrate(arb, i, dr):
+    """The dead reckoning from a clean run's anchor (history slot ``i``): the barometer's own rate
+    over the window that begins there, with the track's mean over it, and the share of the
+    track's change that is the accelerometer's error, from how the barometer's rate minus the
+    track's changed since the run's reference: where the track reads a change (1 + e) times
+    the true one, that difference moves by -e times the true change, and the ratio of the two
+    changes is the share e / (1 + e). Left as it is without a reference, on an unjudged window,
+    with less than _DR_CAL_MIN_MMPS of change between them, or with a share beyond any part's
+    scale error and tilt (_DR_SCALE_LIMIT_Q12): a part that parts from the barometer so far
+    lies, and its lie need not scale with what it reads."""
+    ref_track = dr[_DR_REF_TRACK]
+    j = i + _WINDOW_SLOTS
+    if j >= _HISTORY_SLOTS:
+        j -= _HISTORY_SLOTS
+    diff = arb._diff[j]
+    span_ms = arb._t[j] - arb._t[i]
+    if ref_track == _NO_REF or diff == _NO_DIFF or span_ms <= 0:
+        return
+    rise_mm = _clamp(arb._alt[j] - arb._alt[i], _SLOT_STEP_LIMIT_MM)
+    rate = rise_mm * 1000 // span_ms
+    track = rate - diff
+    change = track - ref_track
+    if -_DR_CAL_MIN_MMPS < change < _DR_CAL_MIN_MMPS:
+        return
+    share = _clamp(dr[_DR_REF_DIFF] - diff, _DR_DIFF_LIMIT_MMPS) * 4096 // change
+    if -_DR_SCALE_LIMIT_Q12 <= share <= _DR_SCALE_LIMIT_Q12:
+        dr[_DR_VEL] = rate
+        dr[_DR_TRACK] = track
+        dr[_DR_SCALE] = share
 
 
 def window_decel_mmps2(arb, i):

@@ -100,6 +100,7 @@ from shared.arbitration import (
     close_slot,
     integrate,
     judge_late,
+    note_reference,
     reads_slow,
 )
 from shared.attrs import make_room
@@ -228,6 +229,9 @@ _BARO_AWAY_MMPS = const(5000)
 # barometer corrected it this long in coast: the bias model's settling (about 2.5 s) plus the
 # 1.6 s of history the anchor reaches back (shared/arbitration.py)
 _ANCHORED_MS = const(4000)
+# The dead reckoning's calibration takes its reference this far into a run of the barometer in use
+# in coast: the run's first window (0.5 s) then lies in it (shared/arbitration.py note_reference)
+_DR_REF_MS = const(1000)
 # A barometer that parted from the filter beyond any barometric error retires the accelerometer
 # (D16 rule 14) only if it read nothing impossible (a spike, shared/health.py) for this long:
 # readings of a broken part (random kilometres) part from anything
@@ -1258,12 +1262,17 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
     if excluded:
         mode = MODE_ACCEL
     if mode & MODE_BARO and state == COAST and fc._baro_coast_ms < _ANCHORED_MS:
-        fc._baro_coast_ms += dt_ms
+        coast_ms = fc._baro_coast_ms
+        if coast_ms < _DR_REF_MS <= coast_ms + dt_ms:
+            # the reference of the dead reckoning's calibration against the barometer, a second
+            # into this run: its newest window lies in the run (D16 rule 7)
+            note_reference(arb)
+        fc._baro_coast_ms = coast_ms + dt_ms
     old = fc.mode
     if mode != old:
         if old & MODE_BARO and not mode & MODE_BARO:
-            arb.set_anchor()
             fc._filter_anchored = fc._baro_coast_ms >= _ANCHORED_MS
+            arb.set_anchor(fc._filter_anchored, fc._dead_reckoning)
             if state == COAST and fc._filter_anchored and fc.health.accel_ok:
                 # the ballistic floor from the anchor, with the accelerometer's drag (D16 rule 10)
                 ballistic.set_from_track(arb.ballistic, arb, now_ms)
