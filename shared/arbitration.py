@@ -78,8 +78,8 @@ _DR_CAL_MIN_MMPS = const(10000)
 # (262 m/s), so that it x 4096 stays inside 31 bits
 _DR_DIFF_LIMIT_MMPS = const(0x3FFFF)
 # The change test (``_judge``): the barometer's rate minus the track's, from one window to the
-# window that ended _WINDOW_SLOTS earlier. Its noise is learnt while the test holds: the mean
-# absolute change over about 2 s of windows (1/_CHANGE_AVG_N per judgement, 20 per second), and
+# window that ended _WINDOW_SLOTS earlier. Its noise is learnt until burnout while the test holds:
+# the mean absolute change over about 2 s of windows (1/_CHANGE_AVG_N per judgement, 20 per second), and
 # the tolerance is baro_change_mps plus _CHANGE_NOISE_K times it (a 20 Hz barometer with 6 m of
 # noise changes its rate by about 30 m/s RMS from window to window, an AltOS part by 2 to 5 m/s). A
 # single bad reading moves one slot, and so two windows that are 0.5 s apart; a step moves every
@@ -131,7 +131,9 @@ class Arbitration:
         self.tilt_loss_1024 = config.tilt_loss_1024
         self.tol_mmps = config.baro_consistency_mmps
         self.change_tol_mmps = config.baro_change_mmps
-        self.change_below_mmps = config.baro_change_below_mmps
+        # below this speed the change test runs (the flight raises it to the Mach lockout's in
+        # coast, D16 rule 20), and below the configured one a readmission's tolerance is tighter
+        self.change_below_mmps = self.readmit_below_mmps = config.baro_change_below_mmps
         self.readmit_tol_mmps = config.baro_readmit_mmps
         # (from the values, not a Config attribute: one more there slowed every sample's lookups
         # of the others by 1.2k instructions on the Cortex-M0)
@@ -169,9 +171,11 @@ class Arbitration:
         self._fbias = array("i", [0] * _HISTORY_SLOTS)
         self._margin = array("i", [0] * _HISTORY_SLOTS)
         # each judged window's barometric rate minus the track's mean velocity (mm/s; _NO_DIFF:
-        # not judged), the change test's learnt noise and its run of failing windows
+        # not judged), the change test's learnt noise (learnt until burnout) and its run of failing
+        # windows
         self._diff = array("i", [_NO_DIFF] * _HISTORY_SLOTS)
         self._change_avg_mmps = 0
+        self._change_learning = True
         self._change_run = 0
         # the learnt noise as it stood at launch: the climb holds' (``climbs_fast``)
         self.pad_noise_mmps = 0
@@ -199,6 +203,12 @@ class Arbitration:
         """Launch: keep the change test's learnt noise as it stood on the pad, a barometer at rest
         (in flight a lie that moves the barometer's rate against the track's widens it)."""
         self.pad_noise_mmps = self._change_avg_mmps
+
+    def note_burnout(self):
+        """Burnout: the change test's noise stays as it was learnt on the pad and through the boost
+        (in coast a barometer frozen under its noise falls to zero as a ramp that, learnt, widened
+        the test ahead of it: docs/DESIGN.md D16 rule 20)."""
+        self._change_learning = False
 
     def stop(self):
         """The accelerometer froze or was lost: its integral no longer bounds anything."""
@@ -290,15 +300,17 @@ class Arbitration:
         return (self.anchor_filter_mmps + self.vel_mmps - self.anchor_track_mmps
                 + self.margin_mmps - self.anchor_margin_mmps + self.upper_extra_mmps)
 
-    def parted_beyond_lie(self, filter_alt_mm, now_ms, lie_mm, with_margin):
-        """The newest slot's barometric altitude lies farther from the filter (carried on by the
-        accelerometer since the barometer was left out) than ``lie_mm`` (a barometric error:
+    def parted_beyond_lie(self, filter_alt_mm, now_ms, lie_mm, with_margin, below=False):
+        """The newest slot's barometric altitude lies farther above the filter (carried on by the
+        accelerometer since the barometer was left out), or with ``below`` farther below it, than
+        ``lie_mm`` (a barometric error:
         ``lie_max_mm``, or ``transient_max_mm`` when the rocket is slow) plus the filter's own
         error since the anchor: its velocity then known to ``baro_readmit_mps`` and, ``with_margin``,
         the track's margin grown since (both x the time since; the margin grows, so this bounds its
         integral). A barometric error is bounded in altitude; an accelerometer's grows with the
-        square of time. False while a slot of the newest window holds no reading. (A method: it
-        runs on the rare samples that leave the barometer out.)"""
+        square of time. One-sided: a barometer below the filter does not prove the accelerometer
+        wrong (docs/DESIGN.md D16 rule 20). False while a slot of the newest window holds no
+        reading. (A method: it runs on the rare samples that leave the barometer out.)"""
         if self._unjudged:
             return False
         dt_ms = now_ms - self.anchor_ms
@@ -310,9 +322,16 @@ class Arbitration:
             if grown_mps > _PART_VEL_LIMIT_MPS:
                 grown_mps = _PART_VEL_LIMIT_MPS
         apart = self._alt[self._head] - filter_alt_mm
-        if apart < 0:
+        if below:
             apart = -apart
         return apart > lie_mm + grown_mps * dt_ms
+
+    def reads_no_climb(self):
+        """The newest window's rate lies within ``baro_readmit_mps`` plus three times the learnt
+        noise of zero: a barometer at rest (docs/DESIGN.md D16 rule 20). (A method: it runs on
+        the rare samples that take the barometer back.)"""
+        tol = self.readmit_tol_mmps + _CHANGE_NOISE_K * self._change_avg_mmps
+        return -tol < self.baro_rate_mmps < tol
 
     def climbs_away(self, filter_alt_mm, floor_mmps):
         """The barometer climbs fast (``climbs_fast``) and its newest slot reads above
@@ -578,7 +597,8 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
     diff = rate - track_mmps
     arb._diff[head] = diff
     margin = arb.margin_mmps
-    # the change test: below baro_change_below_mps the barometer's lag and the static-port error
+    # the change test: below baro_change_below_mps (in coast from the tail-off's end, below the
+    # Mach lockout's speed: D16 rule 20) the barometer's lag and the static-port error
     # change slowly, and over half a second the accelerometer knows the change of velocity to
     # about 1 m/s: a barometric rate that changed by far more than the track's is a pressure step
     # (a -60 m step in the late coast pulled the filter's velocity through zero 2.8 s early)
@@ -600,7 +620,8 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
             arb._diff[head] = _NO_DIFF
         else:
             arb._change_run = 0
-            arb._change_avg_mmps = avg + (change - avg) // _CHANGE_AVG_N
+            if arb._change_learning:
+                arb._change_avg_mmps = avg + (change - avg) // _CHANGE_AVG_N
     else:
         arb._change_run = 0  # three windows in a row, each judged by the test
     allowed = margin + arb.tol_mmps
@@ -611,7 +632,8 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
         # transient's rate still lies by tens of m/s when the bounds' tolerance would take it back)
         diff += arb.anchor_track_mmps - arb.anchor_filter_mmps
         tol = arb.tol_mmps
-        if slow:
+        below = arb.readmit_below_mmps
+        if -below < track_mmps < below:
             tol = arb.readmit_tol_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps
         allowed = margin - arb.anchor_margin_mmps + tol
     if not stepped and -allowed <= diff and (diff <= allowed + arb.upper_extra_mmps or not arb.upper_valid):

@@ -126,7 +126,7 @@ _HAVE_ACCEL = const(2)
 _MODEL_PLAIN = const(0)
 _MODEL_BIAS = const(1)
 _MODEL_GRAVITY = const(2)
-_HEALTH_BARO_BAD = const(3)
+_HEALTH_BARO_BAD = const(67)
 _HEALTH_ACCEL_BAD = const(60)
 
 # States, in flight order.
@@ -501,6 +501,11 @@ class FlightComputer:
         if phase != self._det_phase:
             self._det_phase = phase
             _configure_detector(det, cfg, state, resuming, phase != state)
+            if phase == COAST:
+                # the change test, from the tail-off's end, up to the Mach lockout's speed (a
+                # barometer that freezes at speed falls to zero within a window, D16 rule 20;
+                # back to baro_change_below_mps at an ignition)
+                self.arb.change_below_mmps = cfg.mach_lockout_mmps
         if state >= DROGUE or resuming:
             # under a parachute the orientation is unknown; a resumed filter follows the
             # barometer alone (see restore_state)
@@ -1022,6 +1027,7 @@ def _transition(fc, cfg, state, apogee):
             if kf.acc_q4 < -2500 * 16 or now_ms - fc.ignition_ms > cfg.max_boost_ms:
                 fc.burnout_ms = now_ms
                 fc.events |= EV_BURNOUT
+                fc.arb.note_burnout()
                 fc.state = FAST if fast else COAST
                 fc.boost_ms = 0  # an ignition in coast needs boost readings of its own
         elif (fc.boost_ms >= cfg.launch_accel_ms and fc.apogee_ms < 0
@@ -1037,6 +1043,7 @@ def _transition(fc, cfg, state, apogee):
             fc.ignition_ms = now_ms
             fc.state = BOOST
             fc.events |= EV_IGNITION
+            fc.arb.change_below_mmps = cfg.baro_change_below_mmps
             kf.acc_q4 = cfg.launch_accel_mmps2 << 4
         elif state == FAST:
             if not fast:
@@ -1239,7 +1246,7 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
                     and fc.health.accel_held_near_zero_ms(now_ms, _HELD_NEAR_ZERO_MMPS2)
                     >= cfg.accel_stuck_ms):
                 # left out, alive (no impossible reading for _BARO_CLEAN_MS, a reading in every
-                # slot), and farther from the accelerometer-carried filter than any barometric
+                # slot), and farther above the accelerometer-carried filter than any barometric
                 # error, or climbing faster than _HELD_FAST_MMPS while the accelerometer has read
                 # one value near zero for accel_stuck_s: the accelerometer lies (zeros from a
                 # failed bus, a part reset to another range). The board flies on without it; the
@@ -1269,6 +1276,15 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
             note_reference(arb)
         fc._baro_coast_ms = coast_ms + dt_ms
     old = fc.mode
+    if (mode != old and mode == MODE_BOTH and not old & MODE_BARO and state == COAST
+            and arb.upper_valid and arb.reads_no_climb()
+            and arb.parted_beyond_lie(fc.kf.alt_q4 >> 4, now_ms, arb.transient_max_mm, False, True)):
+        # a barometer that would come back below the accelerometer-carried filter farther than a
+        # transient can lie, reading no climb, lies low (frozen under its noise): retired for the
+        # flight, and the accelerometer-only apogee decides (D16 rule 20)
+        fc.health.retire_baro()
+        fc.baro_excluded = True
+        mode = MODE_ACCEL
     if mode != old:
         if old & MODE_BARO and not mode & MODE_BARO:
             fc._filter_anchored = fc._baro_coast_ms >= _ANCHORED_MS
@@ -1291,7 +1307,7 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
                 # late if the barometer lies fast (D16 rule 13). After a clipped boost (the clip
                 # left the filter wrong, and the anchor with it: taken back after 10 s, it crossed
                 # zero at once, 4.4 s before apogee at 44 m/s); with an unclipped track, when the
-                # barometer comes back farther from the accelerometer-carried filter than a
+                # barometer comes back farther above the accelerometer-carried filter than a
                 # transient can lie (no budget for the filter's own drift: counted as at the
                 # anchor; a false call only errs late). Zeros read for half a second of the boost
                 # left filter and anchor 100 to 200 m/s slow; the barometer, taken back 2 to 4 km
@@ -1330,7 +1346,7 @@ def _accel_only_apogee(fc):
     _ANCHORED_MS before it was lost, the filter's velocity before the fault was detected plus
     the track's change and margin since (``Arbitration.set_anchor``). Never early; late by the
     margin / g. A clipped track bounds nothing from above: then the backup timer. Not while a
-    barometer left out but alive lies farther from the filter than a pressure transient can
+    barometer left out but alive lies farther above the filter than a pressure transient can
     (the rocket slow, no static-port error), nor while it climbs fast away from the filter:
     the accelerometer does not decide alone against it (D16 rules 14 and 18)."""
     arb = fc.arb

@@ -47,11 +47,14 @@ HEALTH_ACCEL_IMPLAUSIBLE = const(16)
 # its readings in coast jumped from one to the next like noise of several g (``acc_jitter``,
 # shared/flight.py): for the flight
 HEALTH_ACCEL_NOISY = const(32)
-HEALTH_BARO_BAD = const(3)  # HEALTH_BARO_STUCK | HEALTH_BARO_LOST
+# the accelerometer contradicted it beyond any barometric lie, far below and slow in coast
+# (``retire_baro``): for the flight
+HEALTH_BARO_IMPLAUSIBLE = const(64)
+HEALTH_BARO_BAD = const(67)  # HEALTH_BARO_STUCK | HEALTH_BARO_LOST | HEALTH_BARO_IMPLAUSIBLE
 # HEALTH_ACCEL_STUCK | HEALTH_ACCEL_LOST | HEALTH_ACCEL_IMPLAUSIBLE | HEALTH_ACCEL_NOISY
 HEALTH_ACCEL_BAD = const(60)
 HEALTH_NAMES = ("baro frozen", "baro lost", "accel frozen", "accel lost", "accel implausible",
-                "accel noisy")
+                "accel noisy", "baro implausible")
 
 # The ends of the altitude table: shared.altitude clamps any pressure outside it to these.
 ALT_TOP_MM = pressure_to_alt_mm(P_MIN_Q4)
@@ -139,7 +142,9 @@ class SensorHealth:
         # run it counts) and its held readings so far
         self._clip_run_ms = -1
         self._clip_held_n = 0
-        self.accel_retired = 0  # see retire_accel: the HEALTH_ACCEL_* flag it was retired for
+        # the flags of the sensors retired for the flight (retire_accel, retire_baro): one value
+        # for both, so that the sample's lookups stay as few (docs/BENCHMARKS.md)
+        self.retired = 0
         self.acc_jitter = 0  # mm/s^2, see _JUMP_CAP_MMPS2
 
     def accel_held_near_zero_ms(self, now_ms, near_mmps2):
@@ -158,7 +163,16 @@ class SensorHealth:
         ``flags``)."""
         self.accel_ok = False
         self._board_mask &= _HAVE_BARO
-        self.accel_retired = HEALTH_ACCEL_NOISY if noisy else HEALTH_ACCEL_IMPLAUSIBLE
+        self.retired |= HEALTH_ACCEL_NOISY if noisy else HEALTH_ACCEL_IMPLAUSIBLE
+
+    def retire_baro(self):
+        """The barometer retired for the flight: in coast the accelerometer found it far below
+        and slow beyond any barometric lie (HEALTH_BARO_IMPLAUSIBLE, docs/DESIGN.md D16 rule 20:
+        frozen under its noise). From the next sample on, the board flies as one without a
+        barometer (its readings unused, ``baro_ok`` False, the flag in ``flags``)."""
+        self.baro_ok = False
+        self._board_mask &= _HAVE_ACCEL
+        self.retired |= HEALTH_BARO_IMPLAUSIBLE
 
 
 def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
@@ -306,6 +320,8 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
         ok = age < lost_ms
         if not ok:
             flags |= HEALTH_BARO_LOST
+    else:
+        flags |= health.retired
     health.baro_ok = ok
     age = health.accel_age_ms
     if have & _HAVE_ACCEL or clipped:  # clipped: alive, at full scale
@@ -320,7 +336,7 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
         if not ok:
             flags |= HEALTH_ACCEL_LOST
     else:
-        flags |= health.accel_retired
+        flags |= health.retired
     health.accel_ok = ok
     changed = flags != health.flags
     health.changed = changed

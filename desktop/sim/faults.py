@@ -26,6 +26,11 @@ Before the sensor (``apply_to_trajectory``):
 After the sensor (``apply_to_record``):
 
 - ``baro_frozen``: from an instant on, the barometer returns its last reading forever.
+- ``baro_frozen_noisy``: from an instant on, the barometer's pressure stands still but its noise
+  goes on (a stuck conversion: an MS5611 whose pressure result stops updating while its
+  temperature still does, a driver that re-reads a stale result): the last reading's smoothed
+  value plus the record's own noise (the reading less its 0.2 s running mean), so that no reading
+  repeats and a stuck test on identical readings cannot see it.
 - ``baro_lost``: from an instant on, no barometer reading (empty cells).
 - ``accel_lost``: from an instant on, no accelerometer reading.
 - ``accel_clipped``: the accelerometer's full scale is 30 to 90 % of the flight's peak reading, at
@@ -50,9 +55,11 @@ import numpy as np
 from desktop.sim.trajectory import G0, R_AIR, Trajectory, isa_temperature
 
 BARO_CLASSES = ("none", "transonic_up", "transonic_down", "transient_burnout", "transient_midcoast",
-                "transient_ejection", "baro_frozen", "baro_lost")
+                "transient_ejection", "baro_frozen", "baro_lost", "baro_frozen_noisy")
 ACCEL_CLASSES = ("accel_lost", "accel_clipped", "accel_biased", "accel_tilted", "accel_zeroed")
-CLASSES = BARO_CLASSES + ACCEL_CLASSES
+# (each class draws from its index here: a class added later goes last, so that the others draw
+# what they always drew)
+CLASSES = BARO_CLASSES[:-1] + ACCEL_CLASSES + BARO_CLASSES[-1:]
 
 TRANSONIC_MAX_FRACTION = 0.10  # of static pressure
 TRANSONIC_SIGMA_MACH = (0.05, 0.3)
@@ -68,6 +75,7 @@ CLIP_FRACTION = (0.3, 0.9)  # of the flight's peak accelerometer reading
 CLIP_MIN_MPS2 = 2.0 * G0  # no part has a full scale below 2 g (it would clip on the pad)
 APOGEE_WINDOW_S = 3.0  # the "around apogee" phase: +- this
 ZEROED_S = (0.2, 5.0)  # how long a zeroed accelerometer reads 0 when it comes back
+NOISE_MEAN_S = 0.2  # baro_frozen_noisy: the running mean whose residual is the part's noise
 
 
 class FaultError(ValueError):
@@ -83,8 +91,8 @@ class Fault:
 
     @property
     def on_board_record(self) -> bool:
-        return self.kind in ("baro_frozen", "baro_lost", "accel_lost", "accel_clipped", "accel_biased",
-                             "accel_zeroed")
+        return self.kind in ("baro_frozen", "baro_lost", "baro_frozen_noisy", "accel_lost", "accel_clipped",
+                             "accel_biased", "accel_zeroed")
 
 
 def classes_for(max_mach: float, board: str) -> tuple[str, ...]:
@@ -141,7 +149,7 @@ def draw_fault(kind: str, rng: np.random.Generator, traj: Trajectory, end_s: flo
             p["start_s"] = apogee + float(rng.uniform(*TRANSIENT_START_S))
         persist = kind != "transient_ejection" and rng.random() < 0.5
         p["hold_until_s"] = apogee if persist else None
-    elif kind in ("baro_frozen", "baro_lost"):
+    elif kind in ("baro_frozen", "baro_lost", "baro_frozen_noisy"):
         p["phase"], p["start_s"] = _phase_instant(rng, traj, end_s, ("boost", "coast", "apogee", "descent"))
     elif kind == "accel_lost":
         p["phase"], p["start_s"] = _phase_instant(rng, traj, end_s, ("boost", "coast", "apogee"))
@@ -198,6 +206,23 @@ def apply_to_trajectory(traj: Trajectory, fault: Fault) -> Trajectory:
     return traj
 
 
+def _frozen_with_noise(t, pres, first):
+    """``pres`` from sample ``first`` on: the running mean (NOISE_MEAN_S) of the last finite
+    reading before it, plus each reading's residual from its own running mean (its noise)."""
+    good = np.isfinite(pres)
+    if not good.any():
+        return pres
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.01
+    n = max(3, int(round(NOISE_MEAN_S / dt)) | 1)
+    filled = np.where(good, pres, np.interp(t, t[good], pres[good]))
+    mean = np.convolve(np.pad(filled, n // 2, mode="edge"), np.ones(n) / n, mode="valid")
+    before = np.flatnonzero(good[:first])
+    held = mean[before[-1]] if before.size else mean[first]
+    out = pres.copy()
+    out[first:] = np.where(good[first:], held + (filled[first:] - mean[first:]), np.nan)
+    return out
+
+
 def apply_to_record(time_s: np.ndarray, pressure_pa: np.ndarray, accel_mps2: np.ndarray, fault: Fault):
     """(pressure_pa, accel_mps2, accel_range_mps2) of the board's record with a sensor fault:
     copies; ``accel_range_mps2`` is the clipping level of ``accel_clipped`` (else None)."""
@@ -214,6 +239,10 @@ def apply_to_record(time_s: np.ndarray, pressure_pa: np.ndarray, accel_mps2: np.
             first = int(np.argmax(after))
             before = np.flatnonzero(np.isfinite(pres[:first]))
             pres[after] = pres[before[-1]] if before.size else pres[first]
+    elif k == "baro_frozen_noisy":
+        after = t >= p["start_s"]
+        if after.any():
+            pres = _frozen_with_noise(t, pres, int(np.argmax(after)))
     elif acc is None:
         pass
     elif k == "accel_lost":

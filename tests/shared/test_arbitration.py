@@ -33,6 +33,7 @@ from shared.health import (
     HEALTH_ACCEL_IMPLAUSIBLE,
     HEALTH_ACCEL_NOISY,
     HEALTH_ACCEL_STUCK,
+    HEALTH_BARO_IMPLAUSIBLE,
     HEALTH_BARO_LOST,
     HEALTH_BARO_STUCK,
     SensorHealth,
@@ -130,6 +131,34 @@ def test_barometer_frozen_or_lost_in_coast_never_early(kind, after_burnout_s):
     # reported as a health event (the flag clears once the main has fired: no longer judged)
     flag = HEALTH_BARO_STUCK if kind == "frozen" else HEALTH_BARO_LOST
     assert any(ev & EV_HEALTH and flags & flag for _, ev, _, flags in out.events)
+
+
+@pytest.mark.parametrize("rocket, after_burnout_s", [
+    (SUBSONIC_ROCKET, 0.5), (SUBSONIC_ROCKET, 4), (SUBSONIC_ROCKET, 6), (SUBSONIC_ROCKET, 12),
+    (MACH_ROCKET, 2), (MACH_ROCKET, 8), (MACH_ROCKET, 12), (MACH_ROCKET, 16)],
+    ids=["subsonic-0.5", "subsonic-4", "subsonic-6", "subsonic-12", "mach2.4-2", "mach2.4-8",
+         "mach2.4-12", "mach2.4-16"])
+def test_a_barometer_frozen_under_its_noise_never_fires_early(rocket, after_burnout_s):
+    # a stuck conversion: the pressure stands still but the part's noise goes on, so no reading
+    # repeats and the health's stuck test cannot see it (docs/DESIGN.md D16 rule 20). Before the
+    # rule: 1.2 to 8.0 s early on the subsonic flight, 2.8 to 16.7 s (at 200 m/s) on the Mach 2.4
+    # one. Late by at most the backup timer (nominal apogee + 3 s)
+    fl = flight(rocket, Faults(baro_frozen_at_s=rocket.burn_s + after_burnout_s, baro_frozen_noisy=True))
+    out = drogue_near_apogee(fl, late_s=3.6)
+    # kilometres below the accelerometer-carried filter, it never proves the healthy
+    # accelerometer wrong (the parting test is one-sided)
+    assert not any(flags & HEALTH_ACCEL_IMPLAUSIBLE for _, _, _, flags in out.events)
+
+
+def test_a_barometer_frozen_under_its_noise_far_below_and_slow_is_retired():
+    # frozen 0.5 s after burnout at 330 m/s, it would come back 1.2 km below the
+    # accelerometer-carried filter reading no climb while the rocket climbs at 113 m/s: retired
+    # for the flight, and the accelerometer-only apogee decides (docs/DESIGN.md D16 rule 20);
+    # taken back, it pulled the filter through zero 5.2 s early
+    rocket = SUBSONIC_ROCKET
+    fl = flight(rocket, Faults(baro_frozen_at_s=rocket.burn_s + 0.5, baro_frozen_noisy=True))
+    out = drogue_near_apogee(fl, late_s=3.6)
+    assert any(ev & EV_HEALTH and flags & HEALTH_BARO_IMPLAUSIBLE for _, ev, _, flags in out.events)
 
 
 @pytest.mark.parametrize("faults", [

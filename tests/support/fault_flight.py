@@ -102,6 +102,7 @@ class Faults:
     transient_rise_s: float = 0.2
     transient_decay_s: float = 0.5  # 0: persists
     baro_frozen_at_s: float = None
+    baro_frozen_noisy: bool = False  # the frozen reading keeps the part's noise (a stuck conversion)
     baro_lost_at_s: float = None
     accel_bias_mps2: float = 0.0
     accel_tilt_deg: float = 0.0
@@ -191,9 +192,13 @@ def fly(rocket=MACH_ROCKET, faults=None, rate_hz=100, pad_s=3.0, after_apogee_s=
     baro_alt_mm = np.empty(n, dtype=np.int64)
     for i in range(n):
         baro_alt_mm[i] = pressure_to_alt_mm(int(round(press[i] * 16)))
-    baro_alt_mm += np.round((alt_offset + rng.normal(0, baro_noise_m, n)) * 1000).astype(np.int64)
+    noise_mm = np.round((alt_offset + rng.normal(0, baro_noise_m, n)) * 1000).astype(np.int64)
+    if f.baro_frozen_at_s is not None and f.baro_frozen_noisy:
+        i0 = np.searchsorted(time_s, f.baro_frozen_at_s)
+        baro_alt_mm[i0:] = baro_alt_mm[i0]
+    baro_alt_mm += noise_mm
     have = np.full(n, HAVE_BARO | HAVE_ACCEL)
-    if f.baro_frozen_at_s is not None:
+    if f.baro_frozen_at_s is not None and not f.baro_frozen_noisy:
         i0 = np.searchsorted(time_s, f.baro_frozen_at_s)
         baro_alt_mm[i0:] = baro_alt_mm[i0]
     if f.baro_lost_at_s is not None:
