@@ -65,6 +65,11 @@ _ANCHOR_MARGIN_MMPS = const(2000)
 # law the floor would fall at g alone, above a real coast (after a reset in coast, or a fault in
 # the coast's first windows). Ten lost a C6 whose transient came 0.4 s into its windows' coast
 _LAW_WINDOWS = const(5)
+# A coasting rocket's rate falls by g x dt from one window to the next (drag only adds): a
+# barometer whose rate stayed within half of that of none in this many windows (2.5 s at 20 per
+# second) since one that fell or rose by the whole of it stands still, frozen under its noise,
+# and holds the apogee (docs/DESIGN.md D16 rule 20)
+_STILL_WINDOWS = const(50)
 # Bounds that keep every product inside 31 bits: a rate's change (1 km/s) times 100, a speed
 # (m/s) squared times 256, the drag (53 g) times the ratio of squared speeds in 1/256 (at most
 # 4), the deceleration (107 g) times a step of at most 1 s.
@@ -115,7 +120,12 @@ class Ballistic:
         # not yet taken off it (um/s) and its drag at the speed whose square is ``speed2``
         self.floor_set = False
         self.anchored = False
-        self.holds = False  # no apogee: the floor is in force and above zero (the step reads it)
+        # no apogee: the floor is in force and above zero, or the barometer stands still (the
+        # step reads it)
+        self.holds = False
+        # windows whose rate stayed within half of g x dt of none, since one that moved by g x dt
+        # (the names quiet and _stands_still: of those tried, the cheapest on the Cortex-M0)
+        self.quiet = 0
         self.floor_mmps = 0
         self.fall_um = 0
         self.at_ms = 0  # the time the floor was carried on to
@@ -133,15 +143,22 @@ def check(bal, arb, on_pad, coasting, now_ms):
 
 def judge(bal, got, on_pad, coasting, now_ms):
     """The rates in ``bal.rates`` (``got``: there are three): on the pad (``on_pad``) learn the
-    noise; in coast (``coasting``) learn the drag, test the change and, at the first failure of a
-    run, set the floor, in force once the run is _RUN windows long; else (above the Mach lockout)
-    nothing. Returns True when the window fails."""
+    noise; in coast (``coasting``) test that the barometer does not stand still, learn the drag,
+    test the change and, at the first failure of a run, set the floor, in force once the run is
+    _RUN windows long; else (above the Mach lockout) only the first. Returns True when the window
+    fails."""
     if not coasting:
         bal.coast_ms = -1
-        if got and on_pad:  # (the pad: the rates are noise)
-            r = bal.rates
+        if not got:
+            return False
+        r = bal.rates
+        if on_pad:  # (the pad: the rates are noise)
             _learn_noise(bal, _clamp(r[_R0] - r[_R1], _CHANGE_LIMIT_MMPS)
                          - _clamp(r[_R1] - r[_R2], _CHANGE_LIMIT_MMPS))
+        elif bal.tol_mmps:
+            dt_cs = (r[_T1] - r[_T2]) // 10
+            if dt_cs > 0:
+                _stands_still(bal, _clamp(r[_R0] - r[_R1], _CHANGE_LIMIT_MMPS), G_MMPS2 * dt_cs // 100)
         return False
     if bal.coast_ms < 0:
         bal.coast_ms = now_ms
@@ -156,6 +173,7 @@ def judge(bal, got, on_pad, coasting, now_ms):
     change = _clamp(r[_R0] - r[_R1], _CHANGE_LIMIT_MMPS)
     before = _clamp(r[_R1] - r[_R2], _CHANGE_LIMIT_MMPS)
     least = G_MMPS2 * dt_cs // 100  # the least a coasting rocket's rate falls over dt
+    _stands_still(bal, change, least)
     most = -before if -before > least else least  # the most, as drag does not grow
     if -most - tol <= change <= -least + tol:
         bal.run = 0
@@ -178,6 +196,21 @@ def judge(bal, got, on_pad, coasting, now_ms):
         bal.anchored = True
         bal.holds = bal.floor_mmps > 0
     return True
+
+
+def _stands_still(bal, change, least):
+    """Count the windows whose rate ``change`` stayed within half of ``least`` (g x dt) of none,
+    since one that fell or rose by the whole of it (a noise's dip does not end the run; a
+    transient's return, rising, is no standing still): _STILL_WINDOWS of them hold the apogee
+    (``holds``) until a window falls or rises by g x dt again (docs/DESIGN.md D16 rule 20)."""
+    half = least >> 1
+    if -half < change < half:
+        bal.quiet += 1
+        if bal.quiet >= _STILL_WINDOWS:
+            bal.holds = True
+    elif (change < -least or change > least) and bal.quiet:
+        bal.quiet = 0
+        bal.holds = bal.anchored and bal.floor_mmps > 0
 
 
 def _window_rates(arb, out):
@@ -291,7 +324,7 @@ def fall(bal, now_ms):
     while dt_ms > 0:
         v = bal.floor_mmps
         if v <= 0:
-            bal.holds = False
+            bal.holds = bal.quiet >= _STILL_WINDOWS
             return
         step = dt_ms if dt_ms < _DT_LIMIT_MS else _DT_LIMIT_MS
         dt_ms -= step

@@ -431,6 +431,11 @@ MUTANTS = [
      "            and arb.upper_valid and arb.reads_no_climb()\n",
      "            and arb.upper_valid\n",
      "tests/tools/test_bench_faults.py::test_a_static_port_error_in_boost_is_left_out_while_the_accelerometer_bounds_it"),
+    ("a-barometer-that-stands-still-holds", BALLISTIC,
+     "        if bal.quiet >= _STILL_WINDOWS:\n            bal.holds = True\n",
+     "        if False:\n            bal.holds = True\n",
+     "tests/tools/test_bench_faults.py::test_baro_only_barometer_frozen_under_its_noise_holds_the_apogee"
+     "[supersonic-coast-2.0]"),
     ("dead-reckoning-calibrated-after-a-clean-run", ARB,
      "            if clean:\n                _calibrate(self, i, dr)\n",
      "\n",

@@ -156,7 +156,9 @@ def test_the_floor_stays_under_the_coast_and_reaches_zero_near_its_apogee(v0, dr
     zero = []
 
     def under(t_ms):
-        if bal.holds:
+        # (the floor's own hold: ``holds`` also holds while the barometer stands still, and the
+        # newest slot held 100 m off reads so)
+        if bal.anchored and bal.floor_mmps > 0:
             assert bal.floor_mmps <= velocity(v0, drag0, t_ms / 1000) * 1000
         elif bal.anchored and not zero:
             zero.append(t_ms)

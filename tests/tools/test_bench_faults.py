@@ -538,6 +538,20 @@ def test_pressure_step_inside_the_gate_in_the_late_coast(subsonic):
     assert_within(subsonic, drogue, 0.1)
 
 
+@pytest.mark.parametrize("rocket, phase, after_s", [("subsonic", "coast", 2.0), ("supersonic", "boost", -1.5),
+                                                   ("supersonic", "coast", 2.0)])
+def test_baro_only_barometer_frozen_under_its_noise_holds_the_apogee(rocket, phase, after_s, request):
+    """A barometer-only board whose barometer freezes under its noise (no reading repeats): its
+    rate stops falling by g every second, and after 2.5 s of windows that did not fall the filter's
+    apogee waits for one that does, at worst the backup timer (docs/DESIGN.md D16 rule 20). Before
+    the rule: 9.7 s early (subsonic), 13.6 and 10.8 s early (the K1000-class flight, frozen in the
+    boost and in coast)."""
+    traj = request.getfixturevalue(rocket)
+    drogue, _ = run(traj, fault("baro_frozen_noisy", phase=phase, start_s=traj.burnout_time_s + after_s),
+                    board="baro")
+    assert_not_early(traj, drogue)
+
+
 def test_baro_only_frozen_barometer_never_fires_early(subsonic):
     drogue, _ = run(subsonic, fault("baro_frozen", phase="coast", start_s=subsonic.burnout_time_s + 2.0),
                     board="baro")
