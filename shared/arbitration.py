@@ -78,12 +78,12 @@ _DR_CAL_MIN_MMPS = const(10000)
 # (262 m/s), so that it x 4096 stays inside 31 bits
 _DR_DIFF_LIMIT_MMPS = const(0x3FFFF)
 # The change test (``_judge``): the barometer's rate minus the track's, from one window to the
-# window that ended _WINDOW_SLOTS earlier. Its noise is learnt until burnout while the test holds:
-# the mean absolute change over about 2 s of windows (1/_CHANGE_AVG_N per judgement, 20 per second), and
-# the tolerance is baro_change_mps plus _CHANGE_NOISE_K times it (a 20 Hz barometer with 6 m of
-# noise changes its rate by about 30 m/s RMS from window to window, an AltOS part by 2 to 5 m/s). A
-# single bad reading moves one slot, and so two windows that are 0.5 s apart; a step moves every
-# window that holds it: _CHANGE_RUN consecutive windows (0.15 s) make a step.
+# window that ended _WINDOW_SLOTS earlier. Its noise is learnt until burnout while the test
+# holds: the mean absolute change over about 2 s of windows (1/_CHANGE_AVG_N per judgement, 20 per
+# second), and the tolerance is baro_change_mps plus _CHANGE_NOISE_K times it (a 20 Hz barometer
+# with 6 m of noise changes its rate by about 30 m/s RMS from window to window, an AltOS part by 2
+# to 5 m/s). A single bad reading moves one slot, and so two windows that are 0.5 s apart; a step
+# moves every window that holds it: _CHANGE_RUN consecutive windows (0.15 s) make a step.
 _CHANGE_AVG_N = const(40)
 _CHANGE_NOISE_K = const(3)
 _CHANGE_RUN = const(3)
@@ -303,14 +303,14 @@ class Arbitration:
     def parted_beyond_lie(self, filter_alt_mm, now_ms, lie_mm, with_margin, below=False):
         """The newest slot's barometric altitude lies farther above the filter (carried on by the
         accelerometer since the barometer was left out), or with ``below`` farther below it, than
-        ``lie_mm`` (a barometric error:
-        ``lie_max_mm``, or ``transient_max_mm`` when the rocket is slow) plus the filter's own
-        error since the anchor: its velocity then known to ``baro_readmit_mps`` and, ``with_margin``,
-        the track's margin grown since (both x the time since; the margin grows, so this bounds its
-        integral). A barometric error is bounded in altitude; an accelerometer's grows with the
-        square of time. One-sided: a barometer below the filter does not prove the accelerometer
-        wrong (docs/DESIGN.md D16 rule 20). False while a slot of the newest window holds no
-        reading. (A method: it runs on the rare samples that leave the barometer out.)"""
+        ``lie_mm`` (a barometric error: ``lie_max_mm``, or ``transient_max_mm`` when the rocket is
+        slow) plus the filter's own error since the anchor: its velocity then known to
+        ``baro_readmit_mps`` and, ``with_margin``, the track's margin grown since (both x the time
+        since; the margin grows, so this bounds its integral). A barometric error is bounded in
+        altitude; an accelerometer's grows with the square of time. One-sided: a barometer below
+        the filter does not prove the accelerometer wrong (docs/DESIGN.md D16 rule 20). False
+        while a slot of the newest window holds no reading. (A method: it runs on the rare samples
+        that leave the barometer out.)"""
         if self._unjudged:
             return False
         dt_ms = now_ms - self.anchor_ms
@@ -632,8 +632,8 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
         # transient's rate still lies by tens of m/s when the bounds' tolerance would take it back)
         diff += arb.anchor_track_mmps - arb.anchor_filter_mmps
         tol = arb.tol_mmps
-        below = arb.readmit_below_mmps
-        if -below < track_mmps < below:
+        readmit_below = arb.readmit_below_mmps
+        if -readmit_below < track_mmps < readmit_below:
             tol = arb.readmit_tol_mmps + _CHANGE_NOISE_K * arb._change_avg_mmps
         allowed = margin - arb.anchor_margin_mmps + tol
     if not stepped and -allowed <= diff and (diff <= allowed + arb.upper_extra_mmps or not arb.upper_valid):

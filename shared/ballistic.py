@@ -149,31 +149,28 @@ def judge(bal, got, on_pad, coasting, now_ms):
     fails."""
     if not coasting:
         bal.coast_ms = -1
-        if not got:
-            return False
-        r = bal.rates
-        if on_pad:  # (the pad: the rates are noise)
-            _learn_noise(bal, _clamp(r[_R0] - r[_R1], _CHANGE_LIMIT_MMPS)
-                         - _clamp(r[_R1] - r[_R2], _CHANGE_LIMIT_MMPS))
-        elif bal.tol_mmps:
-            dt_cs = (r[_T1] - r[_T2]) // 10
-            if dt_cs > 0:
-                _stands_still(bal, _clamp(r[_R0] - r[_R1], _CHANGE_LIMIT_MMPS), G_MMPS2 * dt_cs // 100)
-        return False
-    if bal.coast_ms < 0:
+    elif bal.coast_ms < 0:
         bal.coast_ms = now_ms
-    if not got or not bal.tol_mmps:  # (0: the rule is off)
+    if not got:
         return False
     r = bal.rates
-    noise = bal.noise_mmps
-    tol = bal.tol_mmps + _NOISE_K * noise
+    if on_pad:  # (the pad: the rates are noise)
+        _learn_noise(bal, _clamp(r[_R0] - r[_R1], _CHANGE_LIMIT_MMPS)
+                     - _clamp(r[_R1] - r[_R2], _CHANGE_LIMIT_MMPS))
+        return False
+    if not bal.tol_mmps:  # (0: the rule is off)
+        return False
     dt_cs = (r[_T1] - r[_T2]) // 10  # centiseconds: the products below stay in 31 bits
     if dt_cs <= 0:
         return False
     change = _clamp(r[_R0] - r[_R1], _CHANGE_LIMIT_MMPS)
-    before = _clamp(r[_R1] - r[_R2], _CHANGE_LIMIT_MMPS)
     least = G_MMPS2 * dt_cs // 100  # the least a coasting rocket's rate falls over dt
     _stands_still(bal, change, least)
+    if not coasting:
+        return False
+    noise = bal.noise_mmps
+    tol = bal.tol_mmps + _NOISE_K * noise
+    before = _clamp(r[_R1] - r[_R2], _CHANGE_LIMIT_MMPS)
     most = -before if -before > least else least  # the most, as drag does not grow
     if -most - tol <= change <= -least + tol:
         bal.run = 0

@@ -47,8 +47,8 @@ HEALTH_ACCEL_IMPLAUSIBLE = const(16)
 # its readings in coast jumped from one to the next like noise of several g (``acc_jitter``,
 # shared/flight.py): for the flight
 HEALTH_ACCEL_NOISY = const(32)
-# the accelerometer contradicted it beyond any barometric lie, far below and slow in coast
-# (``retire_baro``): for the flight
+# the accelerometer contradicted it beyond any barometric lie: far below it in coast, reading no
+# climb (``retire_baro``): for the flight
 HEALTH_BARO_IMPLAUSIBLE = const(64)
 HEALTH_BARO_BAD = const(67)  # HEALTH_BARO_STUCK | HEALTH_BARO_LOST | HEALTH_BARO_IMPLAUSIBLE
 # HEALTH_ACCEL_STUCK | HEALTH_ACCEL_LOST | HEALTH_ACCEL_IMPLAUSIBLE | HEALTH_ACCEL_NOISY
@@ -166,10 +166,11 @@ class SensorHealth:
         self.retired |= HEALTH_ACCEL_NOISY if noisy else HEALTH_ACCEL_IMPLAUSIBLE
 
     def retire_baro(self):
-        """The barometer retired for the flight: in coast the accelerometer found it far below
-        and slow beyond any barometric lie (HEALTH_BARO_IMPLAUSIBLE, docs/DESIGN.md D16 rule 20:
-        frozen under its noise). From the next sample on, the board flies as one without a
-        barometer (its readings unused, ``baro_ok`` False, the flag in ``flags``)."""
+        """The barometer retired for the flight: in coast it read no climb farther below the
+        accelerometer-carried filter than any barometric lie (HEALTH_BARO_IMPLAUSIBLE,
+        docs/DESIGN.md D16 rule 20: frozen under its noise). From the next sample on, the board
+        flies as one without a barometer (its readings unused, ``baro_ok`` False, the flag in
+        ``flags``)."""
         self.baro_ok = False
         self._board_mask &= _HAVE_ACCEL
         self.retired |= HEALTH_BARO_IMPLAUSIBLE

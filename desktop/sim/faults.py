@@ -206,6 +206,12 @@ def apply_to_trajectory(traj: Trajectory, fault: Fault) -> Trajectory:
     return traj
 
 
+def _last_reading(pres, first):
+    """The index of the last finite reading before sample ``first`` (``first`` if none)."""
+    before = np.flatnonzero(np.isfinite(pres[:first]))
+    return int(before[-1]) if before.size else first
+
+
 def _frozen_with_noise(t, pres, first):
     """``pres`` from sample ``first`` on: the running mean (NOISE_MEAN_S) of the last finite
     reading before it, plus each reading's residual from its own running mean (its noise)."""
@@ -216,8 +222,7 @@ def _frozen_with_noise(t, pres, first):
     n = max(3, int(round(NOISE_MEAN_S / dt)) | 1)
     filled = np.where(good, pres, np.interp(t, t[good], pres[good]))
     mean = np.convolve(np.pad(filled, n // 2, mode="edge"), np.ones(n) / n, mode="valid")
-    before = np.flatnonzero(good[:first])
-    held = mean[before[-1]] if before.size else mean[first]
+    held = mean[_last_reading(pres, first)]
     out = pres.copy()
     out[first:] = np.where(good[first:], held + (filled[first:] - mean[first:]), np.nan)
     return out
@@ -236,9 +241,7 @@ def apply_to_record(time_s: np.ndarray, pressure_pa: np.ndarray, accel_mps2: np.
         if k == "baro_lost":
             pres[after] = math.nan
         elif after.any():
-            first = int(np.argmax(after))
-            before = np.flatnonzero(np.isfinite(pres[:first]))
-            pres[after] = pres[before[-1]] if before.size else pres[first]
+            pres[after] = pres[_last_reading(pres, int(np.argmax(after)))]
     elif k == "baro_frozen_noisy":
         after = t >= p["start_s"]
         if after.any():
