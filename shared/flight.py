@@ -1276,12 +1276,15 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
             note_reference(arb)
         fc._baro_coast_ms = coast_ms + dt_ms
     old = fc.mode
-    if (mode != old and mode == MODE_BOTH and not old & MODE_BARO and state == COAST
-            and arb.upper_valid and arb.reads_no_climb()
-            and arb.parted_beyond_lie(fc.kf.alt_q4 >> 4, now_ms, arb.transient_max_mm, False, True)):
+    if (mode != old and mode == MODE_BOTH and not old & MODE_BARO and FAST <= state <= COAST
+            and arb.reads_no_climb()
+            and arb.parted_beyond_lie(fc.kf.alt_q4 >> 4, now_ms, arb.transient_max_mm if state == COAST
+                                      else arb.lie_max_mm, False, True)):
         # a barometer that would come back below the accelerometer-carried filter farther than a
-        # transient can lie, reading no climb, lies low (frozen under its noise): retired for the
-        # flight, and the accelerometer-only apogee decides (D16 rule 20)
+        # transient can lie (above the Mach lockout, than a static-port error), reading no climb,
+        # lies low (frozen under its noise): retired for the flight, and the accelerometer-only
+        # apogee decides (D16 rule 20). After a clipped boost too: the clip under-reads, and the
+        # filter it carried lies below the rocket
         fc.health.retire_baro()
         fc.baro_excluded = True
         mode = MODE_ACCEL

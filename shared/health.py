@@ -166,8 +166,8 @@ class SensorHealth:
         self.retired |= HEALTH_ACCEL_NOISY if noisy else HEALTH_ACCEL_IMPLAUSIBLE
 
     def retire_baro(self):
-        """The barometer retired for the flight: in coast it read no climb farther below the
-        accelerometer-carried filter than any barometric lie (HEALTH_BARO_IMPLAUSIBLE,
+        """The barometer retired for the flight: in coast (above the Mach lockout too) it read no
+        climb farther below the accelerometer-carried filter than a barometric lie (HEALTH_BARO_IMPLAUSIBLE,
         docs/DESIGN.md D16 rule 20: frozen under its noise). From the next sample on, the board
         flies as one without a barometer (its readings unused, ``baro_ok`` False, the flag in
         ``flags``)."""

@@ -161,6 +161,20 @@ def test_a_barometer_frozen_under_its_noise_far_below_and_slow_is_retired():
     assert any(ev & EV_HEALTH and flags & HEALTH_BARO_IMPLAUSIBLE for _, ev, _, flags in out.events)
 
 
+@pytest.mark.parametrize("accel_range_g", [None, 16], ids=["unclipped", "clipped16g"])
+def test_a_barometer_frozen_under_its_noise_in_the_boost_is_retired_above_the_mach_lockout(accel_range_g):
+    # frozen 1.4 s into the Mach 2.4 rocket's 1.6 s boost, at 530 m: it comes back into use above
+    # the Mach lockout (unclipped, 3.6 km below the accelerometer-carried filter at 250 m/s) or,
+    # after a 16 g part clipped the boost, in coast, reading no climb: retired for the flight,
+    # and the backup timer fires (docs/DESIGN.md D16 rule 20). Before the rule reached above the
+    # Mach lockout and clipped tracks: 16.5 and 18.4 s early, at 192 and 225 m/s
+    faults = Faults(baro_frozen_at_s=MACH_ROCKET.burn_s * 0.9, baro_frozen_noisy=True)
+    if accel_range_g:
+        faults = dataclasses.replace(faults, accel_range_g=accel_range_g)
+    out = drogue_near_apogee(flight(MACH_ROCKET, faults), late_s=3.6)
+    assert any(ev & EV_HEALTH and flags & HEALTH_BARO_IMPLAUSIBLE for _, ev, _, flags in out.events)
+
+
 @pytest.mark.parametrize("faults", [
     Faults(accel_bias_mps2=1.0), Faults(accel_bias_mps2=-1.0), Faults(accel_tilt_deg=30),
     Faults(accel_range_g=16), Faults(accel_frozen_at_s=3.0), Faults(accel_lost_at_s=3.0),
