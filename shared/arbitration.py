@@ -131,8 +131,8 @@ class Arbitration:
         self.tilt_loss_1024 = config.tilt_loss_1024
         self.tol_mmps = config.baro_consistency_mmps
         self.change_tol_mmps = config.baro_change_mmps
-        # below this speed the change test runs (the flight raises it to the Mach lockout's in
-        # coast, D16 rule 20), and below the configured one a readmission's tolerance is tighter
+        # below this speed the change test runs (the flight raises it past any speed in coast,
+        # D16 rule 20), and below the configured one a readmission's tolerance is tighter
         self.change_below_mmps = self.readmit_below_mmps = config.baro_change_below_mmps
         self.readmit_tol_mmps = config.baro_readmit_mmps
         # (from the values, not a Config attribute: one more there slowed every sample's lookups
@@ -597,8 +597,8 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
     diff = rate - track_mmps
     arb._diff[head] = diff
     margin = arb.margin_mmps
-    # the change test: below baro_change_below_mps (in coast from the tail-off's end, below the
-    # Mach lockout's speed: D16 rule 20) the barometer's lag and the static-port error
+    # the change test: below baro_change_below_mps (in coast from the tail-off's end at any
+    # speed: D16 rule 20) the barometer's lag and the static-port error
     # change slowly, and over half a second the accelerometer knows the change of velocity to
     # about 1 m/s: a barometric rate that changed by far more than the track's is a pressure step
     # (a -60 m step in the late coast pulled the filter's velocity through zero 2.8 s early)

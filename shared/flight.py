@@ -182,6 +182,8 @@ GATE_ALT_MM = const(50000)
 _LATE_COAST_MMPS = const(30000)  # below this vertical speed in coast, acceleration = -g
 GATE_ACC_MMPS2 = const(30000)
 _GATE_START_MS = const(500)
+# the track's own limit (4.2 km/s): the change test in coast runs at every speed (D16 rule 20)
+_ANY_SPEED_MMPS = const(0x3FFFFF)
 # After burnout drag only decelerates: a kinematic acceleration above this (an axial specific force
 # above +0.5 g) is the motor's tail-off, an ejection charge, a shock, a tumbling rocket, or a motor
 # lighting in coast (staging, an air-start: the boost rule takes the flight back to boost once the
@@ -501,11 +503,11 @@ class FlightComputer:
         if phase != self._det_phase:
             self._det_phase = phase
             _configure_detector(det, cfg, state, resuming, phase != state)
-            if phase == COAST:
-                # the change test, from the tail-off's end, up to the Mach lockout's speed (a
-                # barometer that freezes at speed falls to zero within a window, D16 rule 20;
-                # back to baro_change_below_mps at an ignition)
-                self.arb.change_below_mmps = cfg.mach_lockout_mmps
+            if phase == COAST or phase == FAST:
+                # the change test, from the tail-off's end, at any speed, above the Mach lockout
+                # too (a barometer that freezes at speed falls to zero within a window, D16 rule
+                # 20; back to baro_change_below_mps at an ignition)
+                self.arb.change_below_mmps = _ANY_SPEED_MMPS
         if state >= DROGUE or resuming:
             # under a parachute the orientation is unknown; a resumed filter follows the
             # barometer alone (see restore_state)

@@ -25,9 +25,11 @@ def test_json_output_and_main_altitude_override(capsys):
     names = [e["event"] for e in data["events"] if e["event"] not in ("health", "mode")]
     assert names == ["launch", "burnout", "apogee", "drogue", "main"]
     assert set(data["events"][0]) == {"event", "time_s", "altitude_m"}
-    # the barometer excluded after burnout while it catches up (docs/DESIGN.md D16), then back
+    # the barometer excluded after burnout while it catches up (docs/DESIGN.md D16), then back;
+    # left out once more for half a second at 3.5 s, above the Mach lockout, where the change test
+    # sees its rate still catching up (D16 rule 20: the test runs at any speed in coast)
     modes = [e["detail"] for e in data["events"] if e["event"] == "mode"]
-    assert modes == ["accel only (barometer excluded)", "both"]
+    assert modes == ["accel only (barometer excluded)", "both"] * 2
     main_ev = data["events"][-1]
     assert 290 <= main_ev["altitude_m"] <= 300 and data["config"]["main_deploy_m"] == 300
 

@@ -161,6 +161,19 @@ def test_a_barometer_frozen_under_its_noise_far_below_and_slow_is_retired():
     assert any(ev & EV_HEALTH and flags & HEALTH_BARO_IMPLAUSIBLE for _, ev, _, flags in out.events)
 
 
+@pytest.mark.parametrize("speed_mps", [280, 265])
+def test_a_barometer_frozen_under_its_noise_above_the_mach_lockout_is_left_out(speed_mps):
+    # frozen in coast at 280 or 265 m/s, above the Mach lockout (250 m/s): a rate of zero lies
+    # inside the track's margin (about 240 m/s by then), and the change test ran only below the
+    # lockout's speed; from the tail-off's end it runs at any speed, leaves the barometer out at
+    # the freeze, and it never comes back (docs/DESIGN.md D16 rule 20). Late by at most the
+    # backup timer; before: 18.2 and 17.6 s early
+    nominal = flight(MACH_ROCKET)
+    coast = (nominal.time_s > MACH_ROCKET.burn_s) & (nominal.time_s < nominal.apogee_s)
+    at_s = float(np.interp(-speed_mps, -nominal.true_vel_mps[coast], nominal.time_s[coast]))
+    drogue_near_apogee(flight(MACH_ROCKET, Faults(baro_frozen_at_s=at_s, baro_frozen_noisy=True)), late_s=3.6)
+
+
 @pytest.mark.parametrize("accel_range_g", [None, 16], ids=["unclipped", "clipped16g"])
 def test_a_barometer_frozen_under_its_noise_in_the_boost_is_retired_above_the_mach_lockout(accel_range_g):
     # frozen 1.4 s into the Mach 2.4 rocket's 1.6 s boost, at 530 m: it comes back into use above
