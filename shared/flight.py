@@ -1285,8 +1285,9 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
         # a barometer that would come back below the accelerometer-carried filter farther than a
         # transient can lie (above the Mach lockout, than a static-port error), reading no climb,
         # lies low (frozen under its noise): retired for the flight, and the accelerometer-only
-        # apogee decides (D16 rule 20). After a clipped boost too: the clip under-reads, and the
-        # filter it carried lies below the rocket
+        # apogee decides (D16 rule 20). After a clipped boost too: the clip under-reads, so the
+        # filter it carried lies below the rocket (and the backup timer decides: a clipped track
+        # bounds nothing from above)
         fc.health.retire_baro()
         fc.baro_excluded = True
         mode = MODE_ACCEL
