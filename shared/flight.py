@@ -182,7 +182,8 @@ GATE_ALT_MM = const(50000)
 _LATE_COAST_MMPS = const(30000)  # below this vertical speed in coast, acceleration = -g
 GATE_ACC_MMPS2 = const(30000)
 _GATE_START_MS = const(500)
-# the track's own limit (4.2 km/s): the change test in coast runs at every speed (D16 rule 20)
+# the track's own limit (arbitration._VEL_LIMIT_MMPS, 4.2 km/s): the change test in coast runs at
+# every speed (D16 rule 20)
 _ANY_SPEED_MMPS = const(0x3FFFFF)
 # After burnout drag only decelerates: a kinematic acceleration above this (an axial specific force
 # above +0.5 g) is the motor's tail-off, an ejection charge, a shock, a tumbling rocket, or a motor

@@ -167,10 +167,10 @@ class SensorHealth:
 
     def retire_baro(self):
         """The barometer retired for the flight: in coast (above the Mach lockout too) it read no
-        climb farther below the accelerometer-carried filter than a barometric lie (HEALTH_BARO_IMPLAUSIBLE,
-        docs/DESIGN.md D16 rule 20: frozen under its noise). From the next sample on, the board
-        flies as one without a barometer (its readings unused, ``baro_ok`` False, the flag in
-        ``flags``)."""
+        climb farther below the accelerometer-carried filter than a barometric lie
+        (HEALTH_BARO_IMPLAUSIBLE, docs/DESIGN.md D16 rule 20: frozen under its noise). From the
+        next sample on, the board flies as one without a barometer (its readings unused,
+        ``baro_ok`` False, the flag in ``flags``)."""
         self.baro_ok = False
         self._board_mask &= _HAVE_ACCEL
         self.retired |= HEALTH_BARO_IMPLAUSIBLE

@@ -56,6 +56,8 @@ def test_the_folded_copies_of_other_modules_constants_agree():
     from shared.physics import G_MMPS2
 
     assert modules["flight"]._NOT_DRAG_MMPS2 == -G_MMPS2 // 2
+    # the change test's speed in coast is the track's own limit: every track is tested
+    assert modules["flight"]._ANY_SPEED_MMPS == modules["arbitration"]._VEL_LIMIT_MMPS
 
 
 def run(dts, alts, accs, have, **config):

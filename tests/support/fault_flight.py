@@ -193,14 +193,15 @@ def fly(rocket=MACH_ROCKET, faults=None, rate_hz=100, pad_s=3.0, after_apogee_s=
     for i in range(n):
         baro_alt_mm[i] = pressure_to_alt_mm(int(round(press[i] * 16)))
     noise_mm = np.round((alt_offset + rng.normal(0, baro_noise_m, n)) * 1000).astype(np.int64)
-    if f.baro_frozen_at_s is not None and f.baro_frozen_noisy:
+    if f.baro_frozen_at_s is not None:
+        # the pressure stands still; frozen under its noise the noise goes on, else the reading
+        # itself repeats
         i0 = np.searchsorted(time_s, f.baro_frozen_at_s)
         baro_alt_mm[i0:] = baro_alt_mm[i0]
+        if not f.baro_frozen_noisy:
+            noise_mm[i0:] = noise_mm[i0]
     baro_alt_mm += noise_mm
     have = np.full(n, HAVE_BARO | HAVE_ACCEL)
-    if f.baro_frozen_at_s is not None and not f.baro_frozen_noisy:
-        i0 = np.searchsorted(time_s, f.baro_frozen_at_s)
-        baro_alt_mm[i0:] = baro_alt_mm[i0]
     if f.baro_lost_at_s is not None:
         have[time_s >= f.baro_lost_at_s] &= HAVE_ACCEL
     # accelerometer: reads the specific force along its tilted axis, with a bias
