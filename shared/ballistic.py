@@ -26,7 +26,9 @@ r0 over the newest 0.5 s, r1 and r2 over the windows 0.5 s and 1 s before it, dt
 
 With both sensors the window test does not run (its cost on a Cortex-M0); the barometer's
 exclusion by the arbitration sets the floor instead (``set_from_track``), from the filter's
-velocity before the fault and the drag the accelerometer measured then.
+velocity before the fault and the drag the accelerometer measured then. After a clipped boost
+(the accelerometer's track bounds the velocity from below only) the stillness count runs in coast
+(docs/DESIGN.md D16 rule 20).
 
 Units: rates and the floor in mm/s, drag in mm/s^2, times in ms, the learnt noise in mm/s.
 """
@@ -145,8 +147,8 @@ def judge(bal, got, on_pad, coasting, now_ms):
     """The rates in ``bal.rates`` (``got``: there are three): on the pad (``on_pad``) learn the
     noise; in coast (``coasting``) test that the barometer does not stand still, learn the drag,
     test the change and, at the first failure of a run, set the floor, in force once the run is
-    _RUN windows long; else (above the Mach lockout) only the first. Returns True when the window
-    fails."""
+    _RUN windows long; else (above the Mach lockout; with both sensors after a clipped boost)
+    only the first. Returns True when the window fails."""
     if not coasting:
         bal.coast_ms = -1
     elif bal.coast_ms < 0:
@@ -165,7 +167,7 @@ def judge(bal, got, on_pad, coasting, now_ms):
         return False
     change = _clamp(r[_R0] - r[_R1], _CHANGE_LIMIT_MMPS)
     least = G_MMPS2 * dt_cs // 100  # the least a coasting rocket's rate falls over dt
-    _stands_still(bal, change, least)
+    _stands_still(bal, r[_R0], change, least)
     if not coasting:
         return False
     noise = bal.noise_mmps
@@ -176,6 +178,10 @@ def judge(bal, got, on_pad, coasting, now_ms):
         bal.run = 0
         if not bal.anchored:  # (after a fault its decay would teach the noise and the drag)
             bal.floor_set = False  # (a glitch: a single slot off moves two windows, not _RUN)
+            if change < -least and now_ms - bal.fail_ms >= _CLEAN_MS:
+                # falling as a coast, its windows clean of the run's fault: a hold without a
+                # floor ends
+                bal.holds = False
             _learn_noise(bal, change - before)
             if r[_START] >= bal.coast_ms:  # r1 and r2 both in this coast
                 _learn_drag(bal, before, dt_cs)
@@ -192,20 +198,29 @@ def judge(bal, got, on_pad, coasting, now_ms):
     elif bal.run >= _RUN and bal.floor_set:
         bal.anchored = True
         bal.holds = bal.floor_mmps > 0
+    elif bal.run >= _RUN:
+        # no floor (no drag law yet: the coast's first 1.5 s; or a failure shortly before): the
+        # apogee held until a clean window falls as a coast (a barometer frozen under its noise
+        # then stands still, and the count holds it on)
+        bal.holds = True
     return True
 
 
-def _stands_still(bal, change, least):
-    """Count the windows whose rate ``change`` stayed within half of ``least`` (g x dt) of none,
-    since one that fell or rose by the whole of it (a noise's dip does not end the run; a
-    transient's return, rising, is no standing still): _STILL_WINDOWS of them hold the apogee
-    (``holds``) until a window falls or rises by g x dt again (docs/DESIGN.md D16 rule 20)."""
-    half = least >> 1
-    if -half < change < half:
+def _stands_still(bal, rate, change, least):
+    """Count the windows whose ``rate`` changed by less than half of ``least`` (g x dt) while not
+    descending faster than that, since one that changed or descended by the whole of it (a
+    noise's dip does not end the run; a transient's return, rising, is no standing still, nor a
+    steady descent under a parachute, the only flight whose rate holds): _STILL_WINDOWS of them
+    hold the apogee (``holds``) until a window moves again (docs/DESIGN.md D16 rule 20)."""
+    if change < 0:
+        change = -change
+    if -rate > change:  # (a descent is motion too: under a parachute its rate holds)
+        change = -rate
+    if change < least >> 1:
         bal.quiet += 1
         if bal.quiet >= _STILL_WINDOWS:
             bal.holds = True
-    elif (change < -least or change > least) and bal.quiet:
+    elif change > least and bal.quiet:
         bal.quiet = 0
         bal.holds = bal.anchored and bal.floor_mmps > 0
 

@@ -1243,6 +1243,11 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
                 # the ballistic test of a coast without the accelerometer (shared/ballistic.py;
                 # its noise learnt on a barometer-only board's pad)
                 ballistic.check(arb.ballistic, arb, state == PAD, state == COAST, now_ms)
+            elif state == COAST and not arb.upper_valid:
+                # after a clipped boost (the track bounds the velocity from below only) the
+                # stillness count alone: a barometer frozen under its noise that came back above
+                # the filter the clip carried holds the apogee (D16 rule 20)
+                ballistic.check(arb.ballistic, arb, False, False, now_ms)
             if fc.baro_excluded and now_ms - fc.health.baro_spike_ms >= _BARO_CLEAN_MS and (
                     arb.parted_beyond_lie(kf.alt_q4 >> 4, now_ms, arb.lie_max_mm, True)
                     or arb.baro_rate_mmps > _HELD_FAST_MMPS

@@ -196,6 +196,10 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
         have &= _HAVE_BARO  # a clipped reading under-reads: use the barometer alone
         health.accel_clipped += 1
         clipped = True
+        # a clip run, as one held at the flight's largest reading (below): a sample without a
+        # reading after it is judged as the clip
+        health._clip_run_ms = health._acc_change_ms
+        health._clip_held_n = _CLIP_HOLD_N
     # over time: frozen runs, impossible steps, a peak held at full scale (in flight only,
     # where noise is certain; on the pad shared/padcal.py judges barometric jumps)
     # (a run of identical readings that starts on this sample is not frozen: the stuck times
@@ -298,9 +302,13 @@ def check_health(health, now_ms, dt_ms, alt_mm, accel_mmps2, have, in_flight):
             health._acc_last = accel_mmps2
             if not seen:
                 health._acc_seen = seen = True
+        # (a sample without a reading after a clip run's last one: a clip, else a 16 g part
+        # clipped through a 3 s boost and missing one reading was frozen for the flight)
         if (not run_now and in_flight and seen
                 and now_ms - health._acc_run_ms
-                >= (health.max_boost_ms if clipped else health.accel_stuck_ms)):
+                >= (health.max_boost_ms if clipped or not have & _HAVE_ACCEL
+                    and health._clip_run_ms == health._acc_change_ms
+                    and health._clip_held_n >= _CLIP_HOLD_N else health.accel_stuck_ms)):
             flags |= HEALTH_ACCEL_STUCK
             have &= _HAVE_BARO
             clipped = False  # frozen, not clipped: not a reading at all

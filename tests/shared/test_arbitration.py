@@ -188,6 +188,30 @@ def test_a_barometer_frozen_under_its_noise_in_the_boost_is_retired_above_the_ma
     assert any(ev & EV_HEALTH and flags & HEALTH_BARO_IMPLAUSIBLE for _, ev, _, flags in out.events)
 
 
+@pytest.mark.parametrize("frozen_at_s", [0.8, 3.6], ids=["boost", "coast"])
+def test_a_barometer_frozen_under_its_noise_after_a_clipped_boost_holds_the_apogee(frozen_at_s):
+    # the Mach 2.4 rocket on a 16 g part, its barometer frozen halfway through the boost or 2 s
+    # after burnout: the clip leaves the track 700 m/s slow, bounding the velocity from below
+    # only, and the barometer comes back in coast above the filter that track carried, reading no
+    # climb (no retirement); the filter followed it through zero 23.3 and 16.1 s early. A coasting
+    # rocket's rate falls by g every second: 2.5 s of windows that did not fall hold the apogee,
+    # and the backup timer fires (docs/DESIGN.md D16 rule 20)
+    faults = Faults(baro_frozen_at_s=frozen_at_s, baro_frozen_noisy=True, accel_range_g=16)
+    drogue_near_apogee(flight(MACH_ROCKET, faults), late_s=3.6)
+
+
+def test_a_transient_decaying_as_gravity_after_a_clipped_boost_holds_no_descent():
+    # the 27 g flight on a 16 g part, +250 m 6 s before apogee decaying over 3 s: the decay's rate
+    # rises as gravity lowers it, so the barometer's rate stands within half of g x dt of none for
+    # seconds near apogee, and the stillness count holds the apogee; a window reading a rate of
+    # g x dt ends it (a frozen barometer reads none), else the steady descent under the drogue
+    # (in the test flight from apogee on) kept the hold to 0.73 s late (docs/DESIGN.md D16 rule 20)
+    nominal = flight(SUBSONIC_ROCKET, Faults(accel_range_g=16))
+    faults = Faults(accel_range_g=16, transient_at_s=nominal.apogee_s - 6, transient_m=250,
+                    transient_rise_s=0.3, transient_decay_s=3.0)
+    drogue_near_apogee(flight(SUBSONIC_ROCKET, faults))
+
+
 @pytest.mark.parametrize("faults", [
     Faults(accel_bias_mps2=1.0), Faults(accel_bias_mps2=-1.0), Faults(accel_tilt_deg=30),
     Faults(accel_range_g=16), Faults(accel_frozen_at_s=3.0), Faults(accel_lost_at_s=3.0),
@@ -237,6 +261,20 @@ def test_a_part_clipped_through_the_boost_is_clipped_not_frozen(range_known):
     # had lost the accelerometer for the flight)
     fl = flight(SUBSONIC_ROCKET, Faults(accel_range_g=16))
     _, flags, track, _ = _burnout_state(fl, **_range(range_known))
+    assert not flags & HEALTH_ACCEL_STUCK and track
+
+
+@pytest.mark.parametrize("range_known", [True, False], ids=["configured", "unknown"])
+def test_a_reading_missing_from_a_clipped_boost_is_no_frozen_part(range_known):
+    # the 27 g boost on a 16 g part, one accelerometer reading missing 1.2 s into the clip (a bus
+    # hiccup): the sample without a reading follows a clip, judged with max_boost_s. Judged with
+    # accel_stuck_s (0.5 s, as a frozen part) the board stopped the accelerometer's track for the
+    # flight (a random Mach 2.5 rocket on a 16 g part then flew on a barometer that froze under its
+    # noise, and fired the drogue 24 s early at 264 m/s)
+    fl = flight(SUBSONIC_ROCKET, Faults(accel_range_g=16))
+    have = fl.have.copy()
+    have[int(np.searchsorted(fl.time_s, 1.2))] = HAVE_BARO
+    _, flags, track, _ = _burnout_state(dataclasses.replace(fl, have=have), **_range(range_known))
     assert not flags & HEALTH_ACCEL_STUCK and track
 
 

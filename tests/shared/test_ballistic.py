@@ -103,6 +103,34 @@ def test_a_single_slot_off_sets_no_floor():
     assert not bal.anchored and not bal.floor_set
 
 
+def test_a_run_without_a_floor_holds_the_apogee_until_a_clean_window_falls_as_a_coast():
+    """A run of failures in the coast's first windows sets no floor (no drag law yet), yet holds
+    the apogee: a window that falls by g x dt and holds no failure (1.5 s after the run's last)
+    ends the hold. A barometer frozen under its noise 0.5 s after burnout fired barometer-only
+    boards 5 to 7 s early at 55 to 82 m/s (docs/DESIGN.md D16 rule 10)."""
+    z = coast(100, 2.0, 6.0)
+    bal = ballistic()
+    for t_ms in (1500, 1550, 1600):
+        assert judged(bal, windows(z, t_ms, 100000), t_ms)
+    assert bal.holds and not bal.floor_set and not bal.anchored
+    assert not judged(bal, windows(z, 1650), 1650)  # falls as a coast, its r1 and r2 not clean
+    assert bal.holds
+    assert not judged(bal, windows(z, 3100), 3100)  # 1.5 s after the run: clean
+    assert not bal.holds
+
+
+def test_a_frozen_barometer_keeps_the_hold_of_a_run_without_a_floor():
+    """After the run, a barometer frozen under its noise reads windows that pass the test (no lift,
+    no growing deceleration) but never fall as a coast: the hold stays."""
+    z = coast(100, 2.0, 6.0)
+    bal = ballistic()
+    for t_ms in (1500, 1550, 1600):
+        assert judged(bal, windows(z, t_ms, 100000), t_ms)
+    for t_ms in range(1650, 6000, 50):
+        assert not judged(bal, [0, 0, 0, t_ms - 750, t_ms - 1250, t_ms - 1500], t_ms)
+    assert bal.holds
+
+
 def test_no_floor_from_windows_that_held_an_earlier_failure():
     """A failure within 1.5 s of an earlier one sets no floor: its r1 or r2 may hold the earlier
     fault (a rise at the coast's start, before its windows lay in the coast, sits in r1 half a

@@ -117,6 +117,41 @@ def test_the_wait_for_the_accelerometers_account_needs_a_track_that_did_not_clip
     assert -0.5 <= row["error_s"] <= 1.0
 
 
+def test_a_barometer_frozen_in_a_clipped_boost_holds_the_apogee():
+    """Seed 5's rocket 215: 35 kg at 39 g for 1.8 s on a 16 g part, Mach 1.8, its barometer frozen
+    under its noise 0.1 s before burnout. The clipped track reads 245 m/s at burnout against
+    593 m/s; the barometer, taken back 4.6 s after launch 20 m above the filter that track
+    carried while the rocket climbed at 442 m/s 1.6 km higher, pulled the filter through zero:
+    20.0 s early at 218 m/s. Standing still for 2.5 s of windows, it holds the apogee
+    (docs/DESIGN.md D16 rule 20): the backup timer, 3.1 s late."""
+    (row,) = bench_family.fly_rocket((5, 215, ("baro_frozen_noisy",), ("both",)))
+    assert -0.5 <= row["error_s"] <= 3.2
+
+
+def test_a_clipped_part_missing_a_reading_keeps_its_track():
+    """Seed 8's rocket 82: 1.2 kg at 23 g for 4.9 s on a 16 g part, Mach 2.5. Clipped for 3.1 s,
+    the part misses one reading (5 in that flight); judged frozen on that sample, its track ended
+    for the flight, and the barometer, frozen under its noise from 4.4 s, decided alone: 26.6 s
+    early at 299 m/s. A sample without a reading after a clip is judged as the clip
+    (docs/DESIGN.md D16, sensor health): the track runs on, and the barometer's stillness holds
+    the apogee to the backup timer, 3.2 s late."""
+    (row,) = bench_family.fly_rocket((8, 82, ("baro_frozen_noisy",), ("both",)))
+    assert -0.5 <= row["error_s"] <= 3.2
+
+
+@pytest.mark.parametrize("seed, rocket", [(5, 54), (5, 12)], ids=["slow", "mach1.5"])
+def test_a_barometer_only_board_frozen_early_in_the_coast_holds_the_apogee(seed, rocket):
+    """Barometer-only boards whose barometer freezes under its noise in the coast's first 1.5 s
+    (seed 5's rocket 54, 0.5 s after burnout at 76 m/s; rocket 12, Mach 1.5, 0.6 s after its
+    Mach lockout ended at 123 m/s), before the coast's windows hold the drag law the ballistic
+    floor needs: the change test fails for the freeze's fall, but no floor is set, and the
+    filter, pulled to the frozen rate, crossed zero before the stillness count completed: 5.2 and
+    7.4 s early at 55 and 82 m/s. A run of failures without a floor holds the apogee until a
+    window clean of it falls as a coast (docs/DESIGN.md D16 rule 10): the backup timer."""
+    (row,) = bench_family.fly_rocket((seed, rocket, ("baro_frozen_noisy",), ("baro",)))
+    assert -0.5 <= row["error_s"] <= 4.0
+
+
 def test_an_unwritable_rows_file_is_one_line_and_exit_2(tmp_path, capsys):
     assert bench_family.main(["--rockets", "1", "--rows", str(tmp_path / "no" / "rows.jsonl")]) == 2
     err = capsys.readouterr().err
