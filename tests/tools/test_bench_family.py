@@ -65,10 +65,13 @@ def test_a_bad_option_is_one_line_and_exit_2(capsys):
 
 def test_a_track_ended_in_boost_waits_as_without_an_accelerometer():
     """Seed 4's rocket 149: 8 kg at 34 g for 3.1 s on a 16 g part, the fault clipping it lower
-    still. The accelerometer is judged frozen for 20 ms in the boost, which ends its track for the
-    flight, and the filter runs on the barometer alone while the health calls the accelerometer
-    usable again. Its apogee then waits as on a barometer-only board (docs/DESIGN.md D16 rule 11);
-    without the wait the filter, ringing from the boost, fired 3.2 s early at 35 m/s."""
+    still. Until 2026-12-05 the part, missing one reading after its clip, was judged frozen for
+    that sample, which ended its track for the flight, and the filter ran on the barometer alone
+    while the health called the accelerometer usable again; its apogee then waited as on a
+    barometer-only board (docs/DESIGN.md D16 rule 11; without the wait the filter, ringing from
+    the boost, fired 3.2 s early at 35 m/s). Now such a sample is judged as the clip and the
+    track runs on: 0.26 s late (the rule's mutant survives: docs/DESIGN.md, "Surviving
+    mutants")."""
     (row,) = bench_family.fly_rocket((4, 149, ("accel_clipped",), ("both",)))
     assert -0.5 <= row["error_s"] <= 1.0
 
