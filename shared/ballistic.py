@@ -22,7 +22,9 @@ r0 over the newest 0.5 s, r1 and r2 over the windows 0.5 s and 1 s before it, dt
   standard deviations of its noise (at r1's middle time), and it falls from there at most at
   g + k' v^2, k' the law's k plus a noise margin: a vertical coast in air of constant density,
   where the real rocket climbs into thinner air. Once the run is _RUN windows long, no apogee
-  while the floor is above zero (``holds``), for the rest of the coast.
+  while the floor is above zero (``holds``), for the rest of the coast. A run that set no floor
+  (no law yet, or a failure in the _CLEAN_MS before) holds the apogee until a window that holds
+  no failure falls by g dt.
 
 With both sensors the window test does not run (its cost on a Cortex-M0); the barometer's
 exclusion by the arbitration sets the floor instead (``set_from_track``), from the filter's
@@ -122,8 +124,8 @@ class Ballistic:
         # not yet taken off it (um/s) and its drag at the speed whose square is ``speed2``
         self.floor_set = False
         self.anchored = False
-        # no apogee: the floor is in force and above zero, or the barometer stands still (the
-        # step reads it)
+        # no apogee: the floor is in force and above zero, a run set no floor, or the barometer
+        # stands still (the step reads it)
         self.holds = False
         # windows whose rate stayed within half of g x dt of none, since one that moved by g x dt
         # (the names quiet and _stands_still: of those tried, the cheapest on the Cortex-M0)
