@@ -203,9 +203,10 @@ def test_a_barometer_frozen_under_its_noise_after_a_clipped_boost_holds_the_apog
 def test_a_transient_decaying_as_gravity_after_a_clipped_boost_holds_no_descent():
     # the 27 g flight on a 16 g part, +250 m 6 s before apogee decaying over 3 s: the decay's rate
     # rises as gravity lowers it, so the barometer's rate stands within half of g x dt of none for
-    # seconds near apogee, and the stillness count holds the apogee; a window reading a rate of
-    # g x dt ends it (a frozen barometer reads none), else the steady descent under the drogue
-    # (in the test flight from apogee on) kept the hold to 0.73 s late (docs/DESIGN.md D16 rule 20)
+    # seconds near apogee, and the stillness count holds the apogee; a window descending by
+    # g x dt ends it (a frozen barometer reads no descent), else the steady descent under the
+    # drogue (in the test flight from apogee on) kept the hold to 0.73 s late (docs/DESIGN.md D16
+    # rule 20)
     nominal = flight(SUBSONIC_ROCKET, Faults(accel_range_g=16))
     faults = Faults(accel_range_g=16, transient_at_s=nominal.apogee_s - 6, transient_m=250,
                     transient_rise_s=0.3, transient_decay_s=3.0)
@@ -270,7 +271,7 @@ def test_a_reading_missing_from_a_clipped_boost_is_no_frozen_part(range_known):
     # hiccup): the sample without a reading follows a clip, judged with max_boost_s. Judged with
     # accel_stuck_s (0.5 s, as a frozen part) the board stopped the accelerometer's track for the
     # flight (a random Mach 2.5 rocket on a 16 g part then flew on a barometer that froze under its
-    # noise, and fired the drogue 24 s early at 264 m/s)
+    # noise, and fired the drogue 26.6 s early at 299 m/s)
     fl = flight(SUBSONIC_ROCKET, Faults(accel_range_g=16))
     have = fl.have.copy()
     have[int(np.searchsorted(fl.time_s, 1.2))] = HAVE_BARO
