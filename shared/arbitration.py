@@ -88,6 +88,19 @@ _CHANGE_AVG_N = const(40)
 _CHANGE_NOISE_K = const(3)
 _CHANGE_RUN = const(3)
 _NO_DIFF = const(-0x3FFFFFFF)  # a slot whose window was not judged
+# The drift test (``window_drift_test``, docs/DESIGN.md D16 rule 21), in coast (``change_below_mmps``
+# at _VEL_LIMIT_MMPS, the flight's "any speed"), the barometer in use, while the filter's velocity
+# and the barometer's rate stand below _DRIFT_BELOW_MMPS: the barometer's rate minus the track's
+# may fall over _DRIFT_SLOTS (1.5 s, from a window of the barometer's own use) by at most
+# _DRIFT_MMPS plus the margin grown; _DRIFT_RUN windows in a row (0.5 s: noise fails windows
+# alone, a barometer that stopped measuring fails every one) leave it out. At these speeds the
+# barometer's lag and static-port error change by far less, and over 1.5 s the accelerometer knows
+# the change of velocity to the margin's growth: a barometer frozen under its noise drops to a
+# rate of zero while the track falls by g every second.
+_DRIFT_SLOTS = const(30)
+_DRIFT_MMPS = const(5000)
+_DRIFT_BELOW_MMPS = const(50000)
+_DRIFT_RUN = const(10)
 # parted_beyond_lie: the time since the anchor and the filter's velocity error counted at most
 # 300 s and 3 km/s, so that their product (mm) stays inside 31 bits
 _PART_DT_LIMIT_MS = const(300000)
@@ -159,7 +172,10 @@ class Arbitration:
         self.anchored = False  # an anchor is set and the barometer has not agreed since
         self.baro_consistent = True
         self.baro_rate_mmps = 0  # last windowed barometric climb rate
-        self.judge_due = False  # a window closed and its judgement deferred (see close_slot)
+        # True: a window closed and its judgement deferred (see close_slot); None: judged, its
+        # drift test deferred one sample more (see window_drift_test)
+        self.judge_due = False
+        self.windows_drifting = 0  # windows in a row that failed the drift test
         self._agree_ms = 0  # when the current run of agreeing windows began (-1: none)
         # history of slots: barometric altitude mean (mm), middle time (ms), and at the slot's end
         # the track's velocity, the filter's velocity and the track's margin (mm/s), and the
@@ -465,6 +481,8 @@ def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2, defer=False):
     against the accelerometer's bounds, or with ``defer`` leave the judgement to ``judge_late``
     (``judge_due``). (Every fifth sample at 100 Hz, the slowest sample of the coast: each value
     is read once, and the judgement takes the new slot's values from here.)"""
+    if defer and arb.judge_due is None:
+        window_drift_test(arb)  # a board stepping as slowly as its slots: before the slot moves on
     head = arb._head + 1
     if head == _HISTORY_SLOTS:
         head = 0
@@ -567,10 +585,37 @@ def climbs_fast(arb, floor_mmps, any_mmps=0):
 def judge_late(arb):
     """The judgement ``close_slot`` deferred, of the newest window. It must come before the track,
     the anchor or the history change, and before ``baro_consistent`` or ``baro_rate_mmps`` is read:
-    it then gives what it would have on the window's close."""
-    arb.judge_due = False
+    it then gives what it would have on the window's close. Its drift test waits one sample
+    more (``window_drift_test``)."""
+    arb.judge_due = None
     head = arb._head
     _judge(arb, head, arb._t[head], arb._alt[head], arb._win_vel)
+
+
+def window_drift_test(arb):
+    """The drift test (D16 rule 21, see _DRIFT_MMPS) of the newest judged window, on the sample
+    after its judgement: the coast's slot closes and judgements are its slowest samples, this one
+    is not."""
+    arb.judge_due = False
+    run = 0
+    if arb.change_below_mmps == _VEL_LIMIT_MMPS and arb.baro_consistent:  # in coast, in use
+        head = arb._head
+        diffs = arb._diff
+        now = diffs[head]
+        drift = diffs[head - _DRIFT_SLOTS]  # (a negative index wraps the history)
+        if (now != _NO_DIFF and drift != _NO_DIFF
+                and -_DRIFT_BELOW_MMPS < arb._fvel[head] < _DRIFT_BELOW_MMPS
+                and -_DRIFT_BELOW_MMPS < arb.baro_rate_mmps < _DRIFT_BELOW_MMPS
+                and arb._t[head - _DRIFT_SLOTS] - arb._agree_ms >= _READMIT_MS):
+            drift -= now  # how much faster than the track the barometer's rate fell
+            margins = arb._margin
+            if drift > _DRIFT_MMPS + margins[head] - margins[head - _DRIFT_SLOTS]:
+                run = arb.windows_drifting + 1
+                if run >= _DRIFT_RUN:
+                    run = 0
+                    arb._agree_ms = -1
+                    arb.baro_consistent = False
+    arb.windows_drifting = run
 
 
 def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):

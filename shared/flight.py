@@ -102,6 +102,7 @@ from shared.arbitration import (
     judge_late,
     note_reference,
     reads_slow,
+    window_drift_test,
 )
 from shared.attrs import make_room
 from shared.detector import Detector
@@ -658,6 +659,7 @@ class FlightComputer:
         self._pulses += 1
         self.events |= EV_DROGUE
         self.state = DROGUE
+        self.arb.change_below_mmps = self.cfg.baro_change_below_mmps
         self._land_start_ms = self.now_ms
         self._land_min_mm = self._land_max_mm = self.agl_mm
 
@@ -1188,8 +1190,11 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
     disagrees with them. Returns ``have`` without an excluded barometer."""
     cfg = fc.cfg
     arb = fc.arb
-    if arb.judge_due:
+    due = arb.judge_due
+    if due:
         judge_late(arb)  # the previous sample's window (see below)
+    elif due is None:
+        window_drift_test(arb)  # and the sample after, its drift test
     flags = fc.health.flags
     # the track's time: since the accelerometer's previous reading, or since the part of a
     # silence beyond _ACCEL_HOLD_US was accounted as missing (each reading stands for its own

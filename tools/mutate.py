@@ -807,6 +807,24 @@ MUTANTS = [
      "                    clipped = True\n            elif not held",
      "                    clipped = True\n                run_now = True\n            elif not held",
      ARB_TESTS + "::test_a_clip_held_longer_than_any_boost_is_a_frozen_part[unknown]"),
+    ("a-barometer-drifting-near-apogee-is-left-out", ARB,
+     "                    arb._agree_ms = -1\n                    arb.baro_consistent = False\n"
+     "    arb.windows_drifting = run",
+     "                    pass\n    arb.windows_drifting = run",
+     ARB_TESTS + "::test_a_barometer_frozen_under_its_noise_near_apogee_is_left_out"),
+    ("a-drift-is-ten-windows-in-a-row", ARB,
+     "if run >= _DRIFT_RUN:",
+     "if run >= 1:",
+     "tests/desktop/test_detect.py::test_flight_computer_meets_the_study_accuracy_goals"),
+    ("a-drift-is-judged-over-the-barometers-own-use", ARB,
+     "\n                and arb._t[head - _DRIFT_SLOTS] - arb._agree_ms >= _READMIT_MS):",
+     "):",
+     "tests/tools/test_bench_family.py::test_the_drift_is_judged_over_the_barometers_own_use"),
+    ("a-drift-is-judged-on-a-slow-rocket", ARB,
+     "                and -_DRIFT_BELOW_MMPS < arb._fvel[head] < _DRIFT_BELOW_MMPS\n"
+     "                and -_DRIFT_BELOW_MMPS < arb.baro_rate_mmps < _DRIFT_BELOW_MMPS\n",
+     "",
+     "tests/tools/test_bench_family.py::test_the_drift_is_judged_only_on_a_slow_rocket"),
 ]
 
 

@@ -142,6 +142,37 @@ def test_a_clipped_part_missing_a_reading_keeps_its_track():
     assert -0.5 <= row["error_s"] <= 3.2
 
 
+def test_a_barometer_frozen_near_apogee_is_left_out_by_its_drift():
+    """Seed 5's rocket 117: 2.1 kg at 32 g for 1.1 s on a 200 g part, its barometer frozen under
+    its noise 4.7 s before apogee at 46 m/s. The rate falls to zero within a window, inside the
+    change test's 30 m/s and the track's 110 m/s margin, and the filter followed it through zero:
+    2.82 s early at 28 m/s. The barometer's rate fell faster than the track's over 1.5 s for ten
+    windows in a row, and it is left out (docs/DESIGN.md D16 rule 21): 0.06 s late."""
+    (row,) = bench_family.fly_rocket((5, 117, ("baro_frozen_noisy",), ("both",)))
+    assert -0.5 <= row["error_s"] <= 0.3
+
+
+def test_the_drift_is_judged_over_the_barometers_own_use():
+    """Seed 6's rocket 297: 1 kg to 99 m, +101 m at burnout held to apogee. The barometer is left
+    out for the transient's rise and taken back at 2.2 s; judged against a window of the time it
+    was out (its rate then 170 m/s off), it read a drift of 168 m/s and was left out again, the
+    flight was never proven, and no drogue fired. The drift test judges only windows of the
+    barometer's own use (docs/DESIGN.md D16 rule 21): 0.02 s late."""
+    (row,) = bench_family.fly_rocket((6, 297, ("transient_burnout",), ("both",)))
+    assert row["error_s"] is not None and abs(row["error_s"]) <= 0.3
+
+
+def test_the_drift_is_judged_only_on_a_slow_rocket():
+    """Seed 5's rocket 31: 0.13 kg at 28 g for 0.8 s on a 16 g part, Mach 0.6, a static-port error
+    of 7.2 % of pressure at Mach 1 (sigma 0.26 in Mach). As the rocket slows its decay moves the
+    barometer's rate against the clipped track by more than 5 m/s over 1.5 s; judged at that
+    speed, the barometer was left out, and the accelerometer could not bring the apogee: the
+    backup timer, 2.97 s late. The drift test waits until the filter's velocity and the
+    barometer's rate are both below 50 m/s (docs/DESIGN.md D16 rule 21): 0.06 s late."""
+    (row,) = bench_family.fly_rocket((5, 31, ("transonic_up",), ("both",)))
+    assert -0.5 <= row["error_s"] <= 0.3
+
+
 @pytest.mark.parametrize("seed, rocket", [(5, 54), (5, 12)], ids=["slow", "mach1.5"])
 def test_a_barometer_only_board_frozen_early_in_the_coast_holds_the_apogee(seed, rocket):
     """Barometer-only boards whose barometer freezes under its noise in the coast's first 1.5 s
