@@ -92,7 +92,8 @@ _NO_DIFF = const(-0x3FFFFFFF)  # a slot whose window was not judged
 # at _VEL_LIMIT_MMPS, the flight's "any speed"), the barometer in use, while the filter's velocity
 # and the barometer's rate stand below _DRIFT_BELOW_MMPS: the barometer's rate minus the track's
 # may fall over _DRIFT_SLOTS (1.5 s, from a window of the barometer's own use) by at most
-# _DRIFT_MMPS plus the margin grown; _DRIFT_RUN windows in a row (0.5 s: noise fails windows
+# _DRIFT_MMPS plus the margin grown and three times the change test's learnt noise (which also
+# covers the drag an accelerometer reading zeros leaves out); _DRIFT_RUN windows in a row (noise fails windows
 # alone, a barometer that stopped measuring fails every one) leave it out. At these speeds the
 # barometer's lag and static-port error change by far less, and over 1.5 s the accelerometer knows
 # the change of velocity to the margin's growth: a barometer frozen under its noise drops to a
@@ -609,7 +610,8 @@ def window_drift_test(arb):
                 and arb._t[head - _DRIFT_SLOTS] - arb._agree_ms >= _READMIT_MS):
             drift -= now  # how much faster than the track the barometer's rate fell
             margins = arb._margin
-            if drift > _DRIFT_MMPS + margins[head] - margins[head - _DRIFT_SLOTS]:
+            if drift > (_DRIFT_MMPS + margins[head] - margins[head - _DRIFT_SLOTS]
+                        + _CHANGE_NOISE_K * arb._change_avg_mmps):
                 run = arb.windows_drifting + 1
                 if run >= _DRIFT_RUN:
                     run = 0

@@ -820,6 +820,11 @@ MUTANTS = [
      "\n                and arb._t[head - _DRIFT_SLOTS] - arb._agree_ms >= _READMIT_MS):",
      "):",
      "tests/tools/test_bench_family.py::test_the_drift_is_judged_over_the_barometers_own_use"),
+    ("a-drift-allows-the-learnt-noise", ARB,
+     "            if drift > (_DRIFT_MMPS + margins[head] - margins[head - _DRIFT_SLOTS]\n"
+     "                        + _CHANGE_NOISE_K * arb._change_avg_mmps):",
+     "            if drift > (_DRIFT_MMPS + margins[head] - margins[head - _DRIFT_SLOTS]):",
+     "tests/tools/test_bench_family.py::test_an_accelerometer_reading_zeros_drifts_no_truthful_barometer_out"),
     ("a-drift-is-judged-on-a-slow-rocket", ARB,
      "                and -_DRIFT_BELOW_MMPS < arb._fvel[head] < _DRIFT_BELOW_MMPS\n"
      "                and -_DRIFT_BELOW_MMPS < arb.baro_rate_mmps < _DRIFT_BELOW_MMPS\n",
