@@ -91,7 +91,7 @@ _NO_DIFF = const(-0x3FFFFFFF)  # a slot whose window was not judged
 # The drift test (``window_drift_test``, docs/DESIGN.md D16 rule 21), in coast (``change_below_mmps``
 # at _VEL_LIMIT_MMPS, the flight's "any speed"), the barometer in use, while the filter's velocity
 # and the barometer's rate stand below _DRIFT_BELOW_MMPS: the barometer's rate minus the track's
-# may fall over _DRIFT_SLOTS (1.5 s, from a window of the barometer's own use) by at most
+# may fall over _DRIFT_SLOTS (1.5 s, from a window of the barometer's own use, _DRIFT_BACK_MS) by at most
 # _DRIFT_MMPS plus the margin grown and three times the change test's learnt noise (which also
 # covers the drag an accelerometer reading zeros leaves out); _DRIFT_RUN windows in a row (noise fails windows
 # alone, a barometer that stopped measuring fails every one) leave it out. At these speeds the
@@ -102,6 +102,11 @@ _DRIFT_SLOTS = const(30)
 _DRIFT_MMPS = const(5000)
 _DRIFT_BELOW_MMPS = const(50000)
 _DRIFT_RUN = const(10)
+# ... and the older window lies this long after the agreement that took the barometer back
+# began: a window of its time out of use holds the lie it was out for, and a decay that the
+# readmission let through (inside baro_readmit_mps) lies on for up to its decay time, 3 s in the
+# fault model (_READMIT_MS + 3 s)
+_DRIFT_BACK_MS = const(3500)
 # parted_beyond_lie: the time since the anchor and the filter's velocity error counted at most
 # 300 s and 3 km/s, so that their product (mm) stays inside 31 bits
 _PART_DT_LIMIT_MS = const(300000)
@@ -607,7 +612,7 @@ def window_drift_test(arb):
         if (now != _NO_DIFF and drift != _NO_DIFF
                 and -_DRIFT_BELOW_MMPS < arb._fvel[head] < _DRIFT_BELOW_MMPS
                 and -_DRIFT_BELOW_MMPS < arb.baro_rate_mmps < _DRIFT_BELOW_MMPS
-                and arb._t[head - _DRIFT_SLOTS] - arb._agree_ms >= _READMIT_MS):
+                and arb._t[head - _DRIFT_SLOTS] - arb._agree_ms >= _DRIFT_BACK_MS):
             drift -= now  # how much faster than the track the barometer's rate fell
             margins = arb._margin
             if drift > (_DRIFT_MMPS + margins[head] - margins[head - _DRIFT_SLOTS]

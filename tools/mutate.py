@@ -817,9 +817,13 @@ MUTANTS = [
      "if run >= 1:",
      "tests/desktop/test_detect.py::test_flight_computer_meets_the_study_accuracy_goals"),
     ("a-drift-is-judged-over-the-barometers-own-use", ARB,
-     "\n                and arb._t[head - _DRIFT_SLOTS] - arb._agree_ms >= _READMIT_MS):",
+     "\n                and arb._t[head - _DRIFT_SLOTS] - arb._agree_ms >= _DRIFT_BACK_MS):",
      "):",
      "tests/tools/test_bench_family.py::test_the_drift_is_judged_over_the_barometers_own_use"),
+    ("a-drift-waits-out-a-decay-taken-back", ARB,
+     "arb._agree_ms >= _DRIFT_BACK_MS):",
+     "arb._agree_ms >= _READMIT_MS):",
+     "tests/tools/test_bench_family.py::test_a_decay_taken_back_is_no_drift"),
     ("a-drift-allows-the-learnt-noise", ARB,
      "            if drift > (_DRIFT_MMPS + margins[head] - margins[head - _DRIFT_SLOTS]\n"
      "                        + _CHANGE_NOISE_K * arb._change_avg_mmps):",
@@ -829,7 +833,7 @@ MUTANTS = [
      "                and -_DRIFT_BELOW_MMPS < arb._fvel[head] < _DRIFT_BELOW_MMPS\n"
      "                and -_DRIFT_BELOW_MMPS < arb.baro_rate_mmps < _DRIFT_BELOW_MMPS\n",
      "",
-     "tests/tools/test_bench_family.py::test_the_drift_is_judged_only_on_a_slow_rocket"),
+     "tests/tools/test_bench_family.py::test_an_accelerometer_reading_zeros_drifts_no_truthful_barometer_out"),
 ]
 
 
