@@ -88,16 +88,17 @@ _CHANGE_AVG_N = const(40)
 _CHANGE_NOISE_K = const(3)
 _CHANGE_RUN = const(3)
 _NO_DIFF = const(-0x3FFFFFFF)  # a slot whose window was not judged
-# The drift test (``window_drift_test``, docs/DESIGN.md D16 rule 21), in coast (``change_below_mmps``
-# at _VEL_LIMIT_MMPS, the flight's "any speed"), the barometer in use, while the filter's velocity
-# and the barometer's rate stand below _DRIFT_BELOW_MMPS: the barometer's rate minus the track's
-# may fall over _DRIFT_SLOTS (1.5 s, from a window of the barometer's own use, _DRIFT_BACK_MS) by at most
-# _DRIFT_MMPS plus the margin grown and three times the change test's learnt noise (which also
-# covers the drag an accelerometer reading zeros leaves out); _DRIFT_RUN windows in a row (noise fails windows
-# alone, a barometer that stopped measuring fails every one) leave it out. At these speeds the
-# barometer's lag and static-port error change by far less, and over 1.5 s the accelerometer knows
-# the change of velocity to the margin's growth: a barometer frozen under its noise drops to a
-# rate of zero while the track falls by g every second.
+# The drift test (``window_drift_test``, docs/DESIGN.md D16 rule 21): in coast
+# (``change_below_mmps`` at _VEL_LIMIT_MMPS, the flight's "any speed"), the barometer in use,
+# while the filter's velocity and the barometer's rate stand below _DRIFT_BELOW_MMPS, the
+# barometer's rate minus the track's may fall over _DRIFT_SLOTS (1.5 s, from a window of the
+# barometer's own use: _DRIFT_BACK_MS) by at most _DRIFT_MMPS plus the margin grown and three times
+# the change test's learnt noise (which also covers the drag an accelerometer reading zeros leaves
+# out); _DRIFT_RUN windows in a row (noise fails windows alone, a barometer that stopped measuring
+# fails every one) leave it out. At these speeds the barometer's lag and static-port error change
+# by far less, and over 1.5 s the accelerometer knows the change of velocity to the margin's
+# growth: a barometer frozen under its noise drops to a rate of zero while the track falls by g
+# every second.
 _DRIFT_SLOTS = const(30)
 _DRIFT_MMPS = const(5000)
 _DRIFT_BELOW_MMPS = const(50000)

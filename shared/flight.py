@@ -508,7 +508,7 @@ class FlightComputer:
             if phase == COAST or phase == FAST:
                 # the change test, from the tail-off's end, at any speed, above the Mach lockout
                 # too (a barometer that freezes at speed falls to zero within a window, D16 rule
-                # 20; back to baro_change_below_mps at an ignition)
+                # 20; back to baro_change_below_mps at an ignition and at the drogue)
                 self.arb.change_below_mmps = _ANY_SPEED_MMPS
         if state >= DROGUE or resuming:
             # under a parachute the orientation is unknown; a resumed filter follows the
@@ -659,6 +659,7 @@ class FlightComputer:
         self._pulses += 1
         self.events |= EV_DROGUE
         self.state = DROGUE
+        # the coast's change test at any speed, and its drift test, end (D16 rules 20 and 21)
         self.arb.change_below_mmps = self.cfg.baro_change_below_mmps
         self._land_start_ms = self.now_ms
         self._land_min_mm = self._land_max_mm = self.agl_mm
