@@ -488,8 +488,10 @@ def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2, defer=False):
     against the accelerometer's bounds, or with ``defer`` leave the judgement to ``judge_late``
     (``judge_due``). (Every fifth sample at 100 Hz, the slowest sample of the coast: each value
     is read once, and the judgement takes the new slot's values from here.)"""
-    if defer and arb.judge_due is None:
-        window_drift_test(arb)  # a board stepping as slowly as its slots: before the slot moves on
+    if defer and arb.judge_due is None and arb.change_below_mmps == _VEL_LIMIT_MMPS:
+        # a board stepping as slowly as its slots: before the slot moves on (in coast only: the
+        # launch's slowest sample closes a slot right after a judgement)
+        window_drift_test(arb)
     head = arb._head + 1
     if head == _HISTORY_SLOTS:
         head = 0
@@ -526,10 +528,7 @@ def close_slot(arb, now_ms, filter_vel_mmps, filter_bias_mmps2, defer=False):
     win_vel = arb._win_vel + vel
     slots = arb._slots
     if slots > _WINDOW_SLOTS:
-        gone = head - _WINDOW_SLOTS - 1
-        if gone < 0:
-            gone += _HISTORY_SLOTS
-        win_vel -= arb._vel[gone]
+        win_vel -= arb._vel[head - _WINDOW_SLOTS - 1]  # (a negative index wraps the history)
     arb._win_vel = win_vel
     if slots < _HISTORY_SLOTS:
         slots += 1
@@ -630,9 +629,7 @@ def _judge(arb, head, t_ms, alt_mm, win_vel_mmps):
     """The barometer's climb rate over the window ending at slot ``head`` (its middle time, mean
     altitude and the window's sum of track velocities given), and its consistency with the
     accelerometer's bounds (``baro_consistent``)."""
-    oldest = head - _WINDOW_SLOTS
-    if oldest < 0:
-        oldest += _HISTORY_SLOTS
+    oldest = head - _WINDOW_SLOTS  # (a negative index wraps the history)
     span_ms = t_ms - arb._t[oldest]
     if span_ms <= 0:
         return

@@ -1201,7 +1201,7 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
     # silence beyond _ACCEL_HOLD_US was accounted as missing (each reading stands for its own
     # interval, so sensors on separate rows integrate as a row with both)
     dt_ms = now_ms - fc._arb_ms
-    coasting = state == FAST or state == COAST
+    coasting = FAST <= state <= COAST
     # at rest on the pad: the track starts again at the first boost reading (with a usable
     # reading, ``integrate`` restarts it as it adds the reading)
     restart = (state == PAD and (arb.margin_mmps or not arb.valid) and cfg.has_accel
