@@ -606,16 +606,17 @@ def window_drift_test(arb):
     run = 0
     if arb.change_below_mmps == _VEL_LIMIT_MMPS and arb.baro_consistent:  # in coast, in use
         head = arb._head
+        far = head - _DRIFT_SLOTS  # (a negative index wraps the history)
         diffs = arb._diff
         now = diffs[head]
-        drift = diffs[head - _DRIFT_SLOTS]  # (a negative index wraps the history)
+        drift = diffs[far]
         if (now != _NO_DIFF and drift != _NO_DIFF
                 and -_DRIFT_BELOW_MMPS < arb._fvel[head] < _DRIFT_BELOW_MMPS
                 and -_DRIFT_BELOW_MMPS < arb.baro_rate_mmps < _DRIFT_BELOW_MMPS
-                and arb._t[head - _DRIFT_SLOTS] - arb._agree_ms >= _DRIFT_BACK_MS):
+                and arb._t[far] - arb._agree_ms >= _DRIFT_BACK_MS):
             drift -= now  # how much faster than the track the barometer's rate fell
             margins = arb._margin
-            if drift > (_DRIFT_MMPS + margins[head] - margins[head - _DRIFT_SLOTS]
+            if drift > (_DRIFT_MMPS + margins[head] - margins[far]
                         + _CHANGE_NOISE_K * arb._change_avg_mmps):
                 run = arb.windows_drifting + 1
                 if run >= _DRIFT_RUN:

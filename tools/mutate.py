@@ -817,7 +817,7 @@ MUTANTS = [
      "if run >= 1:",
      "tests/desktop/test_detect.py::test_flight_computer_meets_the_study_accuracy_goals"),
     ("a-drift-is-judged-over-the-barometers-own-use", ARB,
-     "\n                and arb._t[head - _DRIFT_SLOTS] - arb._agree_ms >= _DRIFT_BACK_MS):",
+     "\n                and arb._t[far] - arb._agree_ms >= _DRIFT_BACK_MS):",
      "):",
      "tests/tools/test_bench_family.py::test_the_drift_is_judged_over_the_barometers_own_use"),
     ("a-drift-waits-out-a-decay-taken-back", ARB,
@@ -825,9 +825,9 @@ MUTANTS = [
      "arb._agree_ms >= _READMIT_MS):",
      "tests/tools/test_bench_family.py::test_a_decay_taken_back_is_no_drift"),
     ("a-drift-allows-the-learnt-noise", ARB,
-     "            if drift > (_DRIFT_MMPS + margins[head] - margins[head - _DRIFT_SLOTS]\n"
+     "            if drift > (_DRIFT_MMPS + margins[head] - margins[far]\n"
      "                        + _CHANGE_NOISE_K * arb._change_avg_mmps):",
-     "            if drift > (_DRIFT_MMPS + margins[head] - margins[head - _DRIFT_SLOTS]):",
+     "            if drift > (_DRIFT_MMPS + margins[head] - margins[far]):",
      "tests/tools/test_bench_family.py::test_an_accelerometer_reading_zeros_drifts_no_truthful_barometer_out"),
     ("a-drift-is-judged-on-a-slow-rocket", ARB,
      "                and -_DRIFT_BELOW_MMPS < arb._fvel[head] < _DRIFT_BELOW_MMPS\n"
