@@ -70,10 +70,22 @@ _ANCHOR_MARGIN_MMPS = const(2000)
 # the coast's first windows). Ten lost a C6 whose transient came 0.4 s into its windows' coast
 _LAW_WINDOWS = const(5)
 # A coasting rocket's rate falls by g x dt from one window to the next (drag only adds): a
-# barometer whose rate stayed within half of that of none in this many windows (2.5 s at 20 per
-# second) since one that fell or rose by the whole of it stands still, frozen under its noise,
-# and holds the apogee (docs/DESIGN.md D16 rule 20)
+# barometer whose rate stayed within half of that of none in _STILL_WINDOWS windows (2.5 s at 20
+# per second) since one that fell or rose by the whole of it stands still, frozen under its noise
+# (or a transient's decay cancels the coast's deceleration), and holds the apogee (docs/DESIGN.md
+# D16 rule 20). A frozen part reads no climb: standing at zero, _STILL_MIN_WINDOWS windows (0.5 s,
+# one independent window pair) plus one per _STILL_NOISE_MMPS of learnt noise complete the count.
+# A quiet part (noise below about 0.85 m/s: a window pair's change known to a quarter of g x dt)
+# stands still at a coast's apogee less than once in 10^4 window pairs; a noisier one needs up to
+# the five pairs; with no noise learnt (none yet, or a quantised part at rest) the longest count.
+_STILL_MIN_WINDOWS = const(10)
+_STILL_NOISE_MMPS = const(50)
 _STILL_WINDOWS = const(50)
+# On a barometer-only board's pad, a window whose rate rose over the second by more than
+# _NOISE_K x the learnt noise (about four standard deviations of that rise) plus _REST_MMPS is the
+# climb beginning, not noise: the launch by height comes about 0.8 s later, and its accelerating
+# windows taught the pad's noise ten to twenty times its value (so every tolerance of the flight)
+_REST_MMPS = const(1000)
 # Bounds that keep every product inside 31 bits: a rate's change (1 km/s) times 100, a speed
 # (m/s) squared times 256, the drag (53 g) times the ratio of squared speeds in 1/256 (at most
 # 4), the deceleration (107 g) times a step of at most 1 s.
@@ -158,9 +170,10 @@ def judge(bal, got, on_pad, coasting, now_ms):
     if not got:
         return False
     r = bal.rates
-    if on_pad:  # (the pad: the rates are noise)
-        _learn_noise(bal, _clamp(r[_R0] - r[_R1], _CHANGE_LIMIT_MMPS)
-                     - _clamp(r[_R1] - r[_R2], _CHANGE_LIMIT_MMPS))
+    if on_pad:  # (the pad: the rates are noise, until the climb begins)
+        if r[_R0] - r[_R2] <= _NOISE_K * bal.noise_mmps + _REST_MMPS:
+            _learn_noise(bal, _clamp(r[_R0] - r[_R1], _CHANGE_LIMIT_MMPS)
+                         - _clamp(r[_R1] - r[_R2], _CHANGE_LIMIT_MMPS))
         return False
     if not bal.tol_mmps:  # (0: the rule is off)
         return False
@@ -184,8 +197,10 @@ def judge(bal, got, on_pad, coasting, now_ms):
                 # falling as a coast, its windows clean of the run's fault: a hold without a
                 # floor ends
                 bal.holds = False
-            _learn_noise(bal, change - before)
-            if r[_START] >= bal.coast_ms:  # r1 and r2 both in this coast
+            if r[_START] >= bal.coast_ms:  # r1 and r2 both in this coast (the boost's end is
+                # no noise: a barometer frozen in the boost, whose fall to zero passes as the
+                # deceleration at burnout, taught the noise fifty times its value in 0.5 s)
+                _learn_noise(bal, change - before)
                 _learn_drag(bal, before, dt_cs)
         return False
     bal.run += 1
@@ -212,15 +227,22 @@ def _stands_still(bal, rate, change, least):
     """Count the windows whose ``rate`` changed by less than half of ``least`` (g x dt) while not
     descending faster than that, since one that changed or descended by the whole of it (a
     noise's dip does not end the run; a transient's return, rising, is no standing still, nor a
-    steady descent under a parachute, the only flight whose rate holds): _STILL_WINDOWS of them
-    hold the apogee (``holds``) until a window moves again (docs/DESIGN.md D16 rule 20)."""
+    steady descent under a parachute, the only flight whose rate holds): _STILL_WINDOWS of them,
+    or, while the rate stands at zero within half of ``least`` (a frozen part reads no climb),
+    _STILL_MIN_WINDOWS plus one per _STILL_NOISE_MMPS of learnt noise, hold the apogee
+    (``holds``) until a window moves again (docs/DESIGN.md D16 rule 20)."""
     if change < 0:
         change = -change
     if -rate > change:  # (a descent is motion too: under a parachute its rate holds)
         change = -rate
-    if change < least >> 1:
-        bal.quiet += 1
-        if bal.quiet >= _STILL_WINDOWS:
+    half = least >> 1
+    if change < half:
+        quiet = bal.quiet + 1
+        noise = bal.noise_mmps
+        if noise and rate < half and quiet >= _STILL_MIN_WINDOWS + noise // _STILL_NOISE_MMPS:
+            quiet = _STILL_WINDOWS  # (complete: it stays so until a window moves)
+        bal.quiet = quiet
+        if quiet >= _STILL_WINDOWS:
             bal.holds = True
     elif change > least and bal.quiet:
         bal.quiet = 0
@@ -357,4 +379,4 @@ def fall(bal, now_ms):
         bal.floor_mmps = v
         bal.fall_um = um % 1000
         if v <= 0:
-            bal.holds = False
+            bal.holds = bal.quiet >= _STILL_WINDOWS

@@ -131,6 +131,33 @@ def test_a_frozen_barometer_keeps_the_hold_of_a_run_without_a_floor():
     assert bal.holds
 
 
+@pytest.mark.parametrize("step_ms", [10, 50], ids=["every_sample", "every_window"])
+def test_a_barometer_standing_still_holds_past_the_floors_zero(step_ms):
+    """A barometer frozen under its noise in mid coast fails the change test and sets the floor,
+    then stands still: once the stillness count is complete it holds the apogee past the floor's
+    zero (the floor, a lower bound, reaches zero before the true apogee). The floor's crossing
+    released it for the sample it crossed on, and the filter, long at zero, fired then: on the
+    fault benchmark 102 barometer-only boards 0.5 to 1.4 s early (docs/DESIGN.md D16 rule 20)."""
+    z = coast(100, 2.0, 4.0)
+    bal = ballistic()
+    fly_coast(bal, z, 3000)
+    for t_ms in (3050, 3100, 3150):  # the freeze's fall: a run, the floor from 100 m/s less
+        assert judged(bal, windows(z, t_ms, -100000), t_ms)
+    assert bal.anchored and bal.holds
+    t_ms = 3150
+    while bal.floor_mmps > 0:
+        t_ms += step_ms
+        if t_ms % 50 == 0:  # frozen: no lift, no growing deceleration, no fall
+            assert not judged(bal, [0, 0, 0, t_ms - 750, t_ms - 1250, t_ms - 1500], t_ms)
+        fall(bal, t_ms)
+        assert bal.holds, "released at %d ms, the floor at %d mm/s" % (t_ms, bal.floor_mmps)
+    assert bal.quiet >= 50
+    crossed_ms = t_ms
+    for t_ms in range(crossed_ms + step_ms, crossed_ms + 1000, step_ms):
+        fall(bal, t_ms)
+        assert bal.holds
+
+
 def test_no_floor_from_windows_that_held_an_earlier_failure():
     """A failure within 1.5 s of an earlier one sets no floor: its r1 or r2 may hold the earlier
     fault (a rise at the coast's start, before its windows lay in the coast, sits in r1 half a
@@ -170,6 +197,63 @@ def test_the_noise_is_learnt_on_the_pad():
         bal.rates[0], bal.rates[1], bal.rates[2] = s, -s, s  # |r0 - 2 r1 + r2| = 12 m/s
         assert not judge(bal, True, True, False, i * 50)
     assert abs(bal.noise_mmps - 12000) < 500
+
+
+def _mean_rate_mmps(accel_mps2, t_s):
+    """The window rate (mm/s) at ``t_s`` of a climb at ``accel_mps2`` from rest at 0 s."""
+    def height(x):
+        return 0.5 * accel_mps2 * x * x if x > 0 else 0.0
+    return int((height(t_s) - height(t_s - 0.5)) / 0.5 * 1000)
+
+
+def test_the_climbs_beginning_teaches_the_pad_no_noise():
+    """A barometer-only board is launched by height about 0.8 s after its climb begins: the
+    windows of that climb, whose rate rose over the second beyond the noise, are no noise. Learnt,
+    a 5 g climb's 0.8 s took a pad's noise from 0.56 to 3.7 m/s (on the fault benchmark 0.3 to 6
+    m/s, and every tolerance of the flight with it)."""
+    bal = Ballistic(load_config({}))
+    for i in range(200):  # the pad: |r0 - 2 r1 + r2| = 0.6 m/s
+        s = 150 if i % 2 else -150
+        bal.rates[0], bal.rates[1], bal.rates[2] = s, -s, s
+        judge(bal, True, True, False, i * 50)
+    pad_mmps = bal.noise_mmps
+    for k in range(1, 17):
+        t_s = k * 0.05
+        for i, back_s in enumerate((0.0, 0.5, 1.0)):
+            bal.rates[i] = _mean_rate_mmps(5 * G, t_s - back_s)
+        judge(bal, True, True, False, 10000 + k * 50)
+    assert pad_mmps - 100 <= bal.noise_mmps <= pad_mmps + 100
+
+
+def test_the_boosts_end_teaches_the_coast_no_noise():
+    """The coast learns its noise from windows that all lie in it: the burnout's change of
+    deceleration is no noise, and a barometer frozen at the boost's end, whose fall to zero passes
+    the test as that change (the deceleration may not grow, but it grew from the boost), taught
+    the noise fifty times its value within half a second, blinding the stillness count."""
+    bal = ballistic(noise_mmps=400)
+    judge(bal, False, False, True, 1000)  # the coast began at 1 s
+    for t_ms in range(1050, 1500, 50):  # r2 in the boost, climbing; r0 and r1 falling to zero
+        rates = [0, 40000, 100000, t_ms - 750, t_ms - 1250, t_ms - 1500]
+        judged(bal, rates, t_ms)
+    assert bal.noise_mmps == 400
+
+
+@pytest.mark.parametrize("noise_mmps, rate_mmps, windows_needed", [
+    (0, 0, 50), (300, 0, 16), (1000, 0, 30), (2000, 0, 50), (9000, 0, 50), (300, 2000, 16), (300, 20000, 50)])
+def test_the_stillness_count_is_shorter_at_zero_the_quieter_the_part(noise_mmps, rate_mmps, windows_needed):
+    """A frozen part reads no climb: standing at zero (within half of g x dt), ten windows (one
+    independent window pair) and one more per 50 mm/s of learnt noise, at most fifty (2.5 s),
+    complete the count; with no noise learnt (none yet, or a quantised part at rest) fifty; and
+    fifty for a rate that stands still climbing (a transient's decay cancelling the coast's
+    deceleration: a model rocket's burnout transient held the count through its apogee into its
+    parachute's slow descent, to the backup timer)."""
+    bal = ballistic(noise_mmps=noise_mmps)
+    for t_ms in range(1500, 1500 + 50 * windows_needed, 50):
+        assert not bal.holds
+        for i, x in enumerate([rate_mmps, rate_mmps, rate_mmps, t_ms - 750, t_ms - 1250, t_ms - 1500]):
+            bal.rates[i] = x
+        judge(bal, True, False, False, t_ms)  # (above the Mach lockout: the count alone)
+    assert bal.holds and bal.quiet >= 50
 
 
 @pytest.mark.parametrize("v0, drag0", [(100, 2.0), (150, 10.0), (250, 40.0)])
