@@ -142,6 +142,7 @@ class Ballistic:
         # windows whose rate stayed within half of g x dt of none, since one that moved by g x dt
         # (the names quiet and _stands_still: of those tried, the cheapest on the Cortex-M0)
         self.quiet = 0
+        self.moved = 0  # windows that moved by g x dt since the last that stood still
         self.floor_mmps = 0
         self.fall_um = 0
         self.at_ms = 0  # the time the floor was carried on to
@@ -195,8 +196,8 @@ def judge(bal, got, on_pad, coasting, now_ms):
             bal.floor_set = False  # (a glitch: a single slot off moves two windows, not _RUN)
             if change < -least and now_ms - bal.fail_ms >= _CLEAN_MS:
                 # falling as a coast, its windows clean of the run's fault: a hold without a
-                # floor ends
-                bal.holds = False
+                # floor ends (not the stillness count's: one window is no motion)
+                bal.holds = bal.quiet >= _STILL_WINDOWS
             if r[_START] >= bal.coast_ms:  # r1 and r2 both in this coast (the boost's end is
                 # no noise: a barometer frozen in the boost, whose fall to zero passes as the
                 # deceleration at burnout, taught the noise fifty times its value in 0.5 s)
@@ -227,7 +228,8 @@ def _stands_still(bal, rate, change, least):
     """Count the windows whose ``rate`` changed by less than half of ``least`` (g x dt) while not
     descending faster than that, since one that changed or descended by the whole of it (a
     noise's dip does not end the run; a transient's return, rising, is no standing still, nor a
-    steady descent under a parachute, the only flight whose rate holds): _STILL_WINDOWS of them,
+    steady descent under a parachute, the only flight whose rate holds; _RUN of them since the
+    last that stood still, as a slot off moves isolated windows): _STILL_WINDOWS of them,
     or, while the rate stands at zero within half of ``least`` (a frozen part reads no climb),
     _STILL_MIN_WINDOWS plus one per _STILL_NOISE_MMPS of learnt noise, hold the apogee
     (``holds``) until a window moves again (docs/DESIGN.md D16 rule 20)."""
@@ -237,6 +239,7 @@ def _stands_still(bal, rate, change, least):
         change = -rate
     half = least >> 1
     if change < half:
+        bal.moved = 0
         quiet = bal.quiet + 1
         noise = bal.noise_mmps
         if noise and rate < half and quiet >= _STILL_MIN_WINDOWS + noise // _STILL_NOISE_MMPS:
@@ -245,8 +248,10 @@ def _stands_still(bal, rate, change, least):
         if quiet >= _STILL_WINDOWS:
             bal.holds = True
     elif change > least and bal.quiet:
-        bal.quiet = 0
-        bal.holds = bal.anchored and bal.floor_mmps > 0
+        bal.moved += 1
+        if bal.moved >= _RUN:  # (a single slot off moves isolated windows; motion, them all)
+            bal.quiet = 0
+            bal.holds = bal.anchored and bal.floor_mmps > 0
 
 
 def _window_rates(arb, out):

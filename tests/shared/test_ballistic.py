@@ -158,6 +158,55 @@ def test_a_barometer_standing_still_holds_past_the_floors_zero(step_ms):
         assert bal.holds
 
 
+def _frozen_window(bal, t_ms, rate_mmps=0, change_mmps=0, coasting=False):
+    """One window of a barometer frozen under its noise: rates ``rate_mmps`` (the newest
+    ``change_mmps`` off the one before); ``coasting`` False judges the stillness count alone."""
+    for i, x in enumerate([rate_mmps + change_mmps, rate_mmps, rate_mmps, t_ms - 750, t_ms - 1250,
+                           t_ms - 1500]):
+        bal.rates[i] = x
+    return judge(bal, True, False, coasting, t_ms)
+
+
+def test_one_window_that_moves_is_no_motion():
+    """A slot off (a reading stalled at speed, an outlier) moves isolated windows; motion moves
+    them all: three windows that moved by g x dt since the last that stood still end the count.
+    A frozen record noisier in flight than on the pad (window rates of +-3 m/s at 200 m/s) had
+    its count ended by single windows: the fault benchmark's K400 flight 170, frozen at the
+    boost's end, 14.6 s early at 200 m/s."""
+    bal = ballistic(noise_mmps=300)
+    t_ms = 1500
+    for _ in range(8):  # not yet complete: an isolated window does not end it
+        _frozen_window(bal, t_ms)
+        t_ms += 50
+    _frozen_window(bal, t_ms, change_mmps=-6000)
+    for _ in range(10):
+        t_ms += 50
+        _frozen_window(bal, t_ms)
+    assert bal.holds  # 18 still windows: complete (16)
+    for change_mmps in (6000, -6000):  # complete: isolated windows, either way, keep it
+        t_ms += 50
+        _frozen_window(bal, t_ms, change_mmps=change_mmps)
+        t_ms += 50
+        _frozen_window(bal, t_ms)
+        assert bal.holds
+    for _ in range(3):  # motion: a coast that falls by g and more
+        t_ms += 50
+        _frozen_window(bal, t_ms, change_mmps=-6000)
+    assert not bal.holds and bal.quiet == 0
+
+
+def test_one_window_falling_as_a_coast_keeps_the_stillness_hold():
+    """A run without a floor is held until a window clean of it falls by g x dt as a coast; the
+    stillness count's hold is not: a frozen record's single noisy window released it, and the
+    filter, long at zero, fired (the fault benchmark's K400 flight 170, with the count complete)."""
+    bal = ballistic(noise_mmps=300)
+    for t_ms in range(1500, 2500, 50):
+        _frozen_window(bal, t_ms, coasting=True)
+    assert bal.holds
+    assert not _frozen_window(bal, 2500, change_mmps=-6000, coasting=True)  # a clean pass
+    assert bal.holds
+
+
 def test_no_floor_from_windows_that_held_an_earlier_failure():
     """A failure within 1.5 s of an earlier one sets no floor: its r1 or r2 may hold the earlier
     fault (a rise at the coast's start, before its windows lay in the coast, sits in r1 half a
