@@ -100,13 +100,17 @@ _DT_LIMIT_MS = const(1000)
 _WINDOW_SLOTS = const(10)
 _RISE_LIMIT_MM = const(0xFFFFF)
 # ``_window_rates`` output: the three rates, then the middle times of r1's and r2's windows, and
-# the start of r2's window
+# the start of r2's window; then, for ``_stands_still``, the windows that moved by g x dt since the
+# last that stood still (kept here: an attribute of its own re-laid MicroPython's interned names
+# and took the Cortex-M0's worst sample, which never runs this code, to 140.3 to 140.6k
+# instructions in two of the four forms)
 _R0 = const(0)
 _R1 = const(1)
 _R2 = const(2)
 _T1 = const(3)
 _T2 = const(4)
 _START = const(5)
+_MOVED = const(6)
 
 
 class Ballistic:
@@ -142,12 +146,11 @@ class Ballistic:
         # windows whose rate stayed within half of g x dt of none, since one that moved by g x dt
         # (the names quiet and _stands_still: of those tried, the cheapest on the Cortex-M0)
         self.quiet = 0
-        self.moved = 0  # windows that moved by g x dt since the last that stood still
         self.floor_mmps = 0
         self.fall_um = 0
         self.at_ms = 0  # the time the floor was carried on to
         self.floor_drag_mmps2 = 0
-        self.rates = array("i", [0] * 6)  # _window_rates' output
+        self.rates = array("i", [0] * 7)  # _window_rates' output, and the windows that moved
 
 
 def check(bal, arb, on_pad, coasting, now_ms):
@@ -229,7 +232,8 @@ def _stands_still(bal, rate, change, least):
     descending faster than that, since one that changed or descended by the whole of it (a
     noise's dip does not end the run; a transient's return, rising, is no standing still, nor a
     steady descent under a parachute, the only flight whose rate holds; _RUN of them since the
-    last that stood still, as a slot off moves isolated windows): _STILL_WINDOWS of them,
+    last that stood still, as a slot off moves isolated windows and motion all of them):
+    _STILL_WINDOWS of them,
     or, while the rate stands at zero within half of ``least`` (a frozen part reads no climb),
     _STILL_MIN_WINDOWS plus one per _STILL_NOISE_MMPS of learnt noise, hold the apogee
     (``holds``) until a window moves again (docs/DESIGN.md D16 rule 20)."""
@@ -237,19 +241,19 @@ def _stands_still(bal, rate, change, least):
         change = -change
     if -rate > change:  # (a descent is motion too: under a parachute its rate holds)
         change = -rate
-    half = least >> 1
-    if change < half:
-        bal.moved = 0
+    r = bal.rates
+    if change < least >> 1:
+        r[_MOVED] = 0
         quiet = bal.quiet + 1
         noise = bal.noise_mmps
-        if noise and rate < half and quiet >= _STILL_MIN_WINDOWS + noise // _STILL_NOISE_MMPS:
-            quiet = _STILL_WINDOWS  # (complete: it stays so until a window moves)
+        if noise and rate < least >> 1 and quiet >= _STILL_MIN_WINDOWS + noise // _STILL_NOISE_MMPS:
+            quiet = _STILL_WINDOWS  # (complete: it stays so until windows move)
         bal.quiet = quiet
         if quiet >= _STILL_WINDOWS:
             bal.holds = True
     elif change > least and bal.quiet:
-        bal.moved += 1
-        if bal.moved >= _RUN:  # (a single slot off moves isolated windows; motion, them all)
+        r[_MOVED] += 1
+        if r[_MOVED] >= _RUN:  # (a single slot off moves isolated windows; motion, them all)
             bal.quiet = 0
             bal.holds = bal.anchored and bal.floor_mmps > 0
 

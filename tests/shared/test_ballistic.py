@@ -179,13 +179,14 @@ def test_one_window_that_moves_is_no_motion():
         _frozen_window(bal, t_ms)
         t_ms += 50
     _frozen_window(bal, t_ms, change_mmps=-6000)
-    for _ in range(10):
+    for _ in range(8):
         t_ms += 50
         _frozen_window(bal, t_ms)
-    assert bal.holds  # 18 still windows: complete (16)
-    for change_mmps in (6000, -6000):  # complete: isolated windows, either way, keep it
-        t_ms += 50
-        _frozen_window(bal, t_ms, change_mmps=change_mmps)
+    assert bal.holds  # 16 still windows: complete
+    for change_mmps in (6000, -6000):  # complete: two windows, either way, keep it
+        for _ in range(2):
+            t_ms += 50
+            _frozen_window(bal, t_ms, change_mmps=change_mmps)
         t_ms += 50
         _frozen_window(bal, t_ms)
         assert bal.holds
