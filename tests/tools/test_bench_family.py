@@ -195,7 +195,8 @@ def test_an_accelerometer_reading_zeros_drifts_no_truthful_barometer_out():
     assert -0.5 <= row["error_s"] <= 0.3
 
 
-@pytest.mark.parametrize("seed, rocket", [(5, 54), (5, 12)], ids=["slow", "mach1.5"])
+@pytest.mark.parametrize("seed, rocket", [(5, 54), (5, 12), (6, 204)],
+                         ids=["slow", "mach1.5", "in_the_boost"])
 def test_a_barometer_only_board_frozen_early_in_the_coast_holds_the_apogee(seed, rocket):
     """Barometer-only boards whose barometer freezes under its noise in the coast's first 1.5 s
     (seed 5's rocket 54, 0.5 s after burnout at 76 m/s; rocket 12, Mach 1.5, 0.6 s after its
@@ -203,7 +204,11 @@ def test_a_barometer_only_board_frozen_early_in_the_coast_holds_the_apogee(seed,
     floor needs: the change test fails for the freeze's fall, but no floor is set, and the
     filter, pulled to the frozen rate, crossed zero before the stillness count completed: 5.2 and
     7.4 s early at 55 and 82 m/s. A run of failures without a floor holds the apogee until a
-    window clean of it falls as a coast (docs/DESIGN.md D16 rule 10): the backup timer."""
+    window clean of it falls as a coast (docs/DESIGN.md D16 rule 10): the backup timer. Seed 6's
+    rocket 204 (24.5 kg, subsonic) froze 1.5 s into its 2.4 s boost: the filter, pulled to the
+    frozen rate, crossed zero 1.3 s into the coast, before the stillness count's 2.5 s, and fired
+    15.9 s early at 206 m/s; standing at zero, a quiet part's count completes in 0.8 s (D16 rule
+    20): the backup timer."""
     (row,) = bench_family.fly_rocket((seed, rocket, ("baro_frozen_noisy",), ("baro",)))
     assert -0.5 <= row["error_s"] <= 4.0
 
