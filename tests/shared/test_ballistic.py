@@ -57,6 +57,15 @@ def judged(bal, rates, now_ms):
     return judge(bal, True, False, True, now_ms)
 
 
+def _frozen_window(bal, t_ms, rate_mmps=0, change_mmps=0, coasting=False):
+    """One window of a barometer frozen under its noise: rates ``rate_mmps`` (the newest
+    ``change_mmps`` off the one before); ``coasting`` False judges the stillness count alone."""
+    for i, x in enumerate([rate_mmps + change_mmps, rate_mmps, rate_mmps, t_ms - 750, t_ms - 1250,
+                           t_ms - 1500]):
+        bal.rates[i] = x
+    return judge(bal, True, False, coasting, t_ms)
+
+
 def fly_coast(bal, z, until_ms, fault_ms=None, offset_mm=0, on_step=None):
     """The flight computer's calls over ``coast`` ``z``: a window every 50 ms from 1.5 s (the
     newest slot ``offset_mm`` off from ``fault_ms`` on), the floor carried every 10 ms; returns
@@ -127,7 +136,7 @@ def test_a_frozen_barometer_keeps_the_hold_of_a_run_without_a_floor():
     for t_ms in (1500, 1550, 1600):
         assert judged(bal, windows(z, t_ms, 100000), t_ms)
     for t_ms in range(1650, 6000, 50):
-        assert not judged(bal, [0, 0, 0, t_ms - 750, t_ms - 1250, t_ms - 1500], t_ms)
+        assert not _frozen_window(bal, t_ms, coasting=True)
     assert bal.holds
 
 
@@ -148,7 +157,7 @@ def test_a_barometer_standing_still_holds_past_the_floors_zero(step_ms):
     while bal.floor_mmps > 0:
         t_ms += step_ms
         if t_ms % 50 == 0:  # frozen: no lift, no growing deceleration, no fall
-            assert not judged(bal, [0, 0, 0, t_ms - 750, t_ms - 1250, t_ms - 1500], t_ms)
+            assert not _frozen_window(bal, t_ms, coasting=True)
         fall(bal, t_ms)
         assert bal.holds, "released at %d ms, the floor at %d mm/s" % (t_ms, bal.floor_mmps)
     assert bal.quiet >= 50
@@ -156,15 +165,6 @@ def test_a_barometer_standing_still_holds_past_the_floors_zero(step_ms):
     for t_ms in range(crossed_ms + step_ms, crossed_ms + 1000, step_ms):
         fall(bal, t_ms)
         assert bal.holds
-
-
-def _frozen_window(bal, t_ms, rate_mmps=0, change_mmps=0, coasting=False):
-    """One window of a barometer frozen under its noise: rates ``rate_mmps`` (the newest
-    ``change_mmps`` off the one before); ``coasting`` False judges the stillness count alone."""
-    for i, x in enumerate([rate_mmps + change_mmps, rate_mmps, rate_mmps, t_ms - 750, t_ms - 1250,
-                           t_ms - 1500]):
-        bal.rates[i] = x
-    return judge(bal, True, False, coasting, t_ms)
 
 
 def test_one_window_that_moves_is_no_motion():
@@ -300,9 +300,7 @@ def test_the_stillness_count_is_shorter_at_zero_the_quieter_the_part(noise_mmps,
     bal = ballistic(noise_mmps=noise_mmps)
     for t_ms in range(1500, 1500 + 50 * windows_needed, 50):
         assert not bal.holds
-        for i, x in enumerate([rate_mmps, rate_mmps, rate_mmps, t_ms - 750, t_ms - 1250, t_ms - 1500]):
-            bal.rates[i] = x
-        judge(bal, True, False, False, t_ms)  # (above the Mach lockout: the count alone)
+        _frozen_window(bal, t_ms, rate_mmps)  # (above the Mach lockout: the count alone)
     assert bal.holds and bal.quiet >= 50
 
 
