@@ -29,8 +29,9 @@ After the sensor (``apply_to_record``):
 - ``baro_frozen_noisy``: from an instant on, the barometer's pressure stands still but its noise
   goes on (a stuck conversion: an MS5611 whose pressure result stops updating while its
   temperature still does, a driver that re-reads a stale result): the last reading's smoothed
-  value plus the record's own noise (the reading less its 0.2 s running mean), so that no reading
-  repeats and a stuck test on identical readings cannot see it.
+  value plus the record's own noise (the reading less the least-squares line through the readings
+  within 0.1 s of it), so that no reading repeats and a stuck test on identical readings cannot
+  see it.
 - ``baro_lost``: from an instant on, no barometer reading (empty cells).
 - ``accel_lost``: from an instant on, no accelerometer reading.
 - ``accel_clipped``: the accelerometer's full scale is 30 to 90 % of the flight's peak reading, at
@@ -75,7 +76,7 @@ CLIP_FRACTION = (0.3, 0.9)  # of the flight's peak accelerometer reading
 CLIP_MIN_MPS2 = 2.0 * G0  # no part has a full scale below 2 g (it would clip on the pad)
 APOGEE_WINDOW_S = 3.0  # the "around apogee" phase: +- this
 ZEROED_S = (0.2, 5.0)  # how long a zeroed accelerometer reads 0 when it comes back
-NOISE_MEAN_S = 0.2  # baro_frozen_noisy: the running mean whose residual is the part's noise
+NOISE_MEAN_S = 0.2  # baro_frozen_noisy: the span of the local line whose residual is the part's noise
 
 
 class FaultError(ValueError):
@@ -213,19 +214,40 @@ def _last_reading(pres, first):
 
 
 def _frozen_with_noise(t, pres, first):
-    """``pres`` from sample ``first`` on: the running mean (NOISE_MEAN_S) of the last finite
-    reading before it, plus each reading's residual from its own running mean (its noise)."""
+    """``pres`` from sample ``first`` on: the local line (``_local_line``) at the last finite
+    reading before it, plus each reading's residual from its own local line (its noise)."""
     good = np.isfinite(pres)
     if not good.any():
         return pres
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.01
-    n = max(3, int(round(NOISE_MEAN_S / dt)) | 1)
     filled = np.where(good, pres, np.interp(t, t[good], pres[good]))
-    mean = np.convolve(np.pad(filled, n // 2, mode="edge"), np.ones(n) / n, mode="valid")
-    held = mean[_last_reading(pres, first)]
+    line = _local_line(t, filled, NOISE_MEAN_S / 2.0)
+    held = line[_last_reading(pres, first)]
     out = pres.copy()
-    out[first:] = np.where(good[first:], held + (filled[first:] - mean[first:]), np.nan)
+    out[first:] = np.where(good[first:], held + (filled[first:] - line[first:]), np.nan)
     return out
+
+
+def _local_line(t, values, half_s):
+    """At each sample, the least-squares line through the samples within ``half_s`` of it in time,
+    taken there: the motion, so that the residual is the part's noise alone. (A running mean over a
+    number of samples spans a gap in the record on one side: at 100 m/s it took metres of the
+    flight's motion into the "noise".)"""
+    u = t - t[0]
+    v = values - values[0]
+    lo = np.searchsorted(t, t - half_s, side="left")
+    hi = np.searchsorted(t, t + half_s, side="right")
+
+    def window_sum(x):
+        c = np.concatenate(([0.0], np.cumsum(x)))
+        return c[hi] - c[lo]
+
+    n = (hi - lo).astype(float)
+    mean_u = window_sum(u) / n
+    mean_v = window_sum(v) / n
+    var = window_sum(u * u) / n - mean_u * mean_u
+    cov = window_sum(u * v) / n - mean_u * mean_v
+    slope = np.divide(cov, var, out=np.zeros_like(cov), where=var > 1e-12)
+    return values[0] + mean_v + slope * (u - mean_u)
 
 
 def apply_to_record(time_s: np.ndarray, pressure_pa: np.ndarray, accel_mps2: np.ndarray, fault: Fault):

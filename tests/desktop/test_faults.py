@@ -104,6 +104,23 @@ def test_record_faults_change_readings_from_their_start_instant():
     assert clip == pytest.approx(0.5 * peak.max()) and acc.max() == pytest.approx(clip)
 
 
+def test_frozen_noisy_barometer_keeps_the_parts_noise_and_none_of_the_motion_across_a_gap():
+    # A climb at 150 m/s (about 1.8 kPa/s) read at 100 Hz with 2 Pa of noise, 120 ms of readings
+    # missing after the freeze: the frozen reading is the noise about one pressure, the gap no
+    # bump (a running mean over samples spanned it and read metres of the climb as noise)
+    rng = np.random.default_rng(5)
+    t = np.arange(0.0, 10.0, 0.01)
+    t = np.delete(t, np.arange(520, 532))
+    noise = rng.normal(0.0, 2.0, len(t))
+    p = 100000.0 - 1800.0 * t + noise
+    frozen, _, _ = flt.apply_to_record(t, p, None, _fault("baro_frozen_noisy", phase="coast", start_s=5.0))
+    after = frozen[t >= 5.0]
+    assert len(np.unique(after)) == len(after)  # no reading repeats
+    assert np.std(after) == pytest.approx(2.0, rel=0.15)
+    assert np.ptp(after) < 2.0 * 2 * 4.5  # within +-4.5 sigma of one pressure, the gap included
+    assert np.array_equal(frozen[t < 5.0], p[t < 5.0])
+
+
 def test_draws_stay_in_the_stated_ranges(supersonic):
     traj = supersonic
     rng = np.random.default_rng(3)
