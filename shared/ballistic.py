@@ -204,7 +204,10 @@ def judge(bal, got, on_pad, coasting, now_ms):
             if r[_START] >= bal.coast_ms:  # r1 and r2 both in this coast (the boost's end is
                 # no noise: a barometer frozen in the boost, whose fall to zero passes as the
                 # deceleration at burnout, taught the noise fifty times its value in 0.5 s)
-                _learn_noise(bal, change - before)
+                # (a second difference beyond three noises and g x dt counts as that, so that one
+                # window pair moves the noise by a bounded step: a part frozen near apogee, its
+                # rate's fall to zero inside the tolerance, taught it six times its value in 0.6 s)
+                _learn_noise(bal, _clamp(change - before, _NOISE_K * noise + least))
                 _learn_drag(bal, before, dt_cs)
         return False
     bal.run += 1

@@ -7,6 +7,7 @@ from shared.ballistic import Ballistic, fall, judge
 from shared.config import load_config
 from shared.detector import HAVE_BARO
 from shared.flight import COAST, FlightComputer
+from shared.physics import G_MMPS2
 from tests.support.fault_flight import MACH_ROCKET, SUBSONIC_ROCKET, Faults, fly, run
 
 G = 9.80665
@@ -275,17 +276,37 @@ def test_the_climbs_beginning_teaches_the_pad_no_noise():
     assert pad_mmps - 100 <= bal.noise_mmps <= pad_mmps + 100
 
 
-def test_the_boosts_end_teaches_the_coast_no_noise():
-    """The coast learns its noise from windows that all lie in it: the burnout's change of
-    deceleration is no noise, and a barometer frozen at the boost's end, whose fall to zero passes
-    the test as that change (the deceleration may not grow, but it grew from the boost), taught
-    the noise fifty times its value within half a second, blinding the stillness count."""
+def test_the_boosts_end_teaches_the_coast_no_noise_and_no_drag():
+    """The coast learns its noise and its drag law from windows that all lie in it: the burnout's
+    change of deceleration is no noise, and the boost's acceleration in r2 no drag. A barometer
+    frozen at the boost's end, whose fall to zero passes the test as that change (the
+    deceleration may not grow, but it grew from the boost), taught the noise fifty times its value
+    within half a second, blinding the stillness count."""
     bal = ballistic(noise_mmps=400)
     judge(bal, False, False, True, 1000)  # the coast began at 1 s
     for t_ms in range(1050, 1500, 50):  # r2 in the boost, climbing; r0 and r1 falling to zero
         rates = [0, 40000, 100000, t_ms - 750, t_ms - 1250, t_ms - 1500]
         judged(bal, rates, t_ms)
     assert bal.noise_mmps == 400
+    assert bal.windows == 0  # no drag law yet
+
+
+@pytest.mark.parametrize("off_mmps", [-12000, 12000])
+def test_one_window_pair_moves_the_coasts_noise_by_a_bounded_step(off_mmps):
+    """A second difference beyond three noises plus g x dt counts as that: a passing window pair
+    moves the noise by at most (2 noises + g dt) / 40. A part frozen near apogee, whose rate's
+    fall to zero (up to 20 m/s within 0.5 s) passed inside the tolerance, taught the noise
+    several times its value within 0.6 s (a longer stillness count, a wider tolerance), and the
+    filter's apogee came up to 1 s early."""
+    least_mmps = G_MMPS2 // 2  # g x dt, windows 0.5 s apart
+    bal = ballistic(noise_mmps=800)
+    rates = [20000 - 2 * least_mmps, 20000 - least_mmps, 20000, 1250, 750, 500]  # a coast at g
+    assert not judged(bal, rates, 2000)
+    settled = bal.noise_mmps  # (this pair's second difference is zero)
+    rates[0] += off_mmps  # r0 off by 12 m/s, inside the tolerance (10 m/s + 3 x 0.8 m/s)
+    assert not judged(bal, rates, 2000)
+    assert bal.noise_mmps <= settled + (2 * settled + least_mmps) // 40 + 1
+    assert bal.noise_mmps > settled  # (it does learn)
 
 
 @pytest.mark.parametrize("noise_mmps, rate_mmps, windows_needed", [
