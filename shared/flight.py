@@ -62,7 +62,10 @@ and 10 g, the accelerometer's lowest possible velocity at or below ``apogee_guar
 once the barometer was left out in coast, the accelerometer's velocity dead-reckoned from the
 filter's before the fault at or below ``dead_reckoning_guard_mps``; and the ballistic floor
 (``shared/ballistic.py``: without an accelerometer in use, set by a barometric change no coasting
-rocket can make; with both sensors, by the barometer's exclusion) at or below zero.
+rocket can make; with both sensors, by the barometer's exclusion) at or below zero. A declared
+apogee is withdrawn while the barometer in use climbs fast (D16 rule 17), and while a barometer
+that stands still has pulled the filter down faster than the accelerometer's track allows
+(rule 22).
 Without a usable barometer (``mode`` accel only) apogee is the accelerometer's highest possible
 velocity reaching zero, with the filter's (``_accel_only_apogee``); with no usable sensor, only the
 backup timer. The decision mode and the barometer's exclusion come from ``_arbitrate``
@@ -224,6 +227,21 @@ _ACCEL_NOISY_MMPS2 = const(39227)
 # left out: seed 6's rocket 206 of the random rockets fired 0.9 s early without that tier)
 _BARO_CLIMB_HOLD_MMPS = const(6000)
 _BARO_CLIMB_FAST_MMPS = const(20000)
+# Nor, with the track bounding both sides, while the barometer stands still: its rate rose
+# against the track's by more than _STOOD_MMPS (half of g x 0.5 s) over the _STOOD_SLOTS (0.5 s)
+# to its newest judged window (a coasting barometer's rate falls with the track's; a frozen one's
+# stands, so it rises against it by g x 0.5 s), while over the arbitration's history (_FALL_SLOTS
+# of its 50 ms slots: 1.5 s) the filter's velocity fell faster than the track by more than the
+# margin the track grew (its bias and tilt bounds: the barometer pulled the filter down faster
+# than the accelerometer allows) and the filter's velocity then, carried on by the track and that
+# margin, still climbs (D16 rule 22). A barometer frozen under its noise 2 s before apogee stands
+# at zero, and the filter, pulled down, crossed zero 0.5 to 1.1 s early. The carried velocity
+# bounds the wait. Without the stillness, a filter converging after a transient (its fall then
+# leads the track's too) was held up to the backup timer, and one on a truthful barometer beside
+# an accelerometer reading zeros (its track misses the drag) 0.7 s
+_FALL_SLOTS = const(30)
+_STOOD_SLOTS = const(10)
+_STOOD_MMPS = const(2452)
 # No accelerometer-only apogee while the barometer left out climbs faster than this (plus three
 # times its pad noise) away from the accelerometer-carried filter (D16 rule 18): twice the 0.5 s
 # window's lag at a true apogee. A negative transient's return climbs from below the filter
@@ -577,7 +595,23 @@ class FlightComputer:
                 # reads as a motor lit: the barometer, not the part, must then end that boost)
                 kf.acc_q4 = acc_kin << 4 if acc_kin < _CLIP_ACC_LIMIT_MMPS2 else RATE_LIMIT_Q4
             apogee = det.step(dt_us, alt_mm, acc_kin, have, filter_decides)
-            if apogee and climbs_fast(self.arb, _BARO_CLIMB_HOLD_MMPS, _BARO_CLIMB_FAST_MMPS):
+            arb = self.arb
+            if apogee and arb.upper_valid:
+                # D16 rule 22 (_FALL_SLOTS): the filter's velocity 1.5 s ago, the track's change
+                # since and the margin grown since, and the barometer's rate against the track's
+                # over the 0.5 s to the newest judged window (the newest slot's judgement may wait
+                # a sample; an unjudged one fails the test; a negative index wraps the history)
+                head = arb._head
+                far = head - _FALL_SLOTS
+                fell = arb._fvel[far]
+                carried = arb._vel[head] - arb._vel[far]
+                grown = arb._margin[head] - arb._margin[far]
+                stood = arb._diff[head - 1] - arb._diff[head - 1 - _STOOD_SLOTS]
+                if (fell - arb._fvel[head] > grown - carried and fell + carried + grown > 0
+                        and _STOOD_MMPS < stood < _ANY_SPEED_MMPS):
+                    det.withdraw_apogee()
+                    apogee = False
+            if apogee and climbs_fast(arb, _BARO_CLIMB_HOLD_MMPS, _BARO_CLIMB_FAST_MMPS):
                 # D16 rule 17: nor, while the accelerometer's track runs, while the barometer climbs
                 # fast (faster than 20 m/s with the track bounding both sides; faster than 6 m/s
                 # as a coasting rocket climbs). At a true apogee its 0.5 s window reads about

@@ -557,6 +557,33 @@ def test_baro_only_barometer_frozen_under_its_noise_holds_the_apogee(rocket, pha
     assert_not_early(traj, drogue)
 
 
+@pytest.mark.parametrize("rocket, before_s, seed", [("supersonic", 1.8, 7), ("supersonic", 2.0, 7),
+                                                    ("subsonic", 1.8, 8)])
+def test_a_barometer_frozen_under_its_noise_near_apogee_does_not_pull_the_filter_through_zero(
+        rocket, before_s, seed, request):
+    """Both sensors, a barometer frozen under its noise 1.8 to 2 s before apogee (at 18 to 20
+    m/s): its rate drops to zero within a window, too little for the change test and too close to
+    apogee for the drift test, and the filter, pulled down, crossed zero 0.56 to 0.69 s early. The
+    filter's velocity then fell faster than the accelerometer's track allows, while the velocity
+    of 1.5 s before, carried on by the track, still climbed, and the frozen rate stood still
+    against the track's fall: no apogee (docs/DESIGN.md D16 rule 22). Measured: 0.17 to 0.37 s
+    late; without the carried velocity's bound up to 0.78 s."""
+    traj = request.getfixturevalue(rocket)
+    drogue, _ = run(traj, fault("baro_frozen_noisy", phase="apogee", start_s=traj.apogee_time_s - before_s),
+                    seed=seed)
+    assert_within(traj, drogue, 0.5)
+
+
+def test_an_accelerometer_reading_zeros_near_apogee_does_not_hold_the_filter(subsonic):
+    """A failed bus returns zeros from 3 s before apogee: the track then misses the drag, and the
+    filter, on the truthful barometer, falls faster than that track; rule 22 without its
+    stillness test held its apogee 0.72 s. A truthful barometer's rate falls with the coast
+    (measured: 0.00 s)."""
+    drogue, _ = run(subsonic, fault("accel_zeroed", phase="coast", start_s=subsonic.apogee_time_s - 3.0,
+                                    until_s=None))
+    assert_within(subsonic, drogue, 0.1)
+
+
 def test_baro_only_frozen_barometer_never_fires_early(subsonic):
     drogue, _ = run(subsonic, fault("baro_frozen", phase="coast", start_s=subsonic.burnout_time_s + 2.0),
                     board="baro")
@@ -670,6 +697,26 @@ def test_a_floor_set_at_the_exclusion_holds_a_decay_without_the_dead_reckoning(b
     (row,) = [r for r in rows if r["class"] == "transient_midcoast"]
     assert abs(row["fault"]["dh_m"] - 282.6) < 0.1  # the flight traced in docs/DESIGN.md
     assert (row["error_s"] < -EARLY_S) == early
+
+
+def test_a_filter_converging_after_a_transient_is_not_held_as_one_pulled_down(bench_cache):
+    """The fault benchmark's J360, flight 102, both sensors: +236 m held from 11.7 s (airbrakes)
+    to 16.4 s. The filter, pulled 7 m/s fast by the transient's onset, converges to the truth and
+    crosses zero at the apogee, its fall then leading the track's by more than the margin, as a
+    filter pulled down by a frozen barometer does; but the barometer's rate falls with the coast:
+    no hold (D16 rule 22's stillness; without it 2.97 s late, the backup timer)."""
+    from desktop.io.rocket_file import load_rocket
+
+    name, flight = "j360_sport", 102
+    nominal = bench.trajectory(name, 1, None, bench_cache)
+    main_m = load_rocket(bench._rocket_path(name)).main.deploy_altitude_m
+    user = bench.user_settings(nominal, main_m)
+    rows = bench.evaluate((name, bench.ROCKETS.index(name), flight % bench.DEFAULT_TRAJECTORIES, [flight], 1,
+                           bench_cache, user, nominal.max_mach, (("both",), {"transient_midcoast"},
+                                                                ("flight-computer",))))
+    (row,) = [r for r in rows if r["class"] == "transient_midcoast"]
+    assert abs(row["fault"]["dh_m"] - 236.1) < 0.1  # the flight traced in docs/BENCHMARKS.md
+    assert abs(row["error_s"]) <= 0.1
 
 
 def test_a_clipped_boost_still_holds_the_filter_while_the_barometer_climbs_as_a_rocket(bench_cache):
