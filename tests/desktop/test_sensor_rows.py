@@ -112,9 +112,11 @@ def _layout_drogue_errors(layout):
         if name == ANOMALOUS and layout != "split_rows":
             # with a fifth (or half) of its barometer readings the ejection-like event at 2.0 s
             # is seen later: drogue 0.3 s before the reference apogee (0.24 s after with all).
-            # With a 20 Hz barometer, 1.16 s after: the tumbling readings outside the filter's
-            # gate leave the track holding its velocity (docs/DESIGN.md D16 rule 16; 0.71 s before)
-            assert -0.4 <= events["drogue"].time_s - ref["apogee_time_s"] <= 1.2
+            # With a 20 Hz barometer, 1.20 s after: the tumbling readings outside the filter's
+            # gate leave the track holding its velocity (docs/DESIGN.md D16 rule 16; 0.71 s before),
+            # and the filter, falling faster than that axial track, is held 0.04 s more (rule 22;
+            # 1.16 s before it)
+            assert -0.4 <= events["drogue"].time_s - ref["apogee_time_s"] <= 1.3
             continue
         if name == ANOMALOUS:
             assert -0.2 <= events["drogue"].time_s - ref["apogee_time_s"] <= 1.0
