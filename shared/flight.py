@@ -227,7 +227,8 @@ _ACCEL_NOISY_MMPS2 = const(39227)
 # left out: seed 6's rocket 206 of the random rockets fired 0.9 s early without that tier)
 _BARO_CLIMB_HOLD_MMPS = const(6000)
 _BARO_CLIMB_FAST_MMPS = const(20000)
-# Nor, with the track bounding both sides, while the barometer stands still: its rate rose
+# Nor, while the track runs (the rule reads only its changes, which a clip in the boost leaves
+# whole in coast), while the barometer stands still: its rate rose
 # against the track's by more than _STOOD_MMPS (half of g x 0.5 s) over the _STOOD_SLOTS (0.5 s)
 # to its newest judged window (a coasting barometer's rate falls with the track's; a frozen one's
 # stands, so it rises against it by g x 0.5 s), while over the arbitration's history (_FALL_SLOTS
@@ -596,7 +597,7 @@ class FlightComputer:
                 kf.acc_q4 = acc_kin << 4 if acc_kin < _CLIP_ACC_LIMIT_MMPS2 else RATE_LIMIT_Q4
             apogee = det.step(dt_us, alt_mm, acc_kin, have, filter_decides)
             arb = self.arb
-            if apogee and arb.upper_valid:
+            if apogee and arb.valid:
                 # D16 rule 22 (_FALL_SLOTS): the filter's velocity 1.5 s ago, the track's change
                 # since and the margin grown since, and the barometer's rate against the track's
                 # over the 0.5 s to the newest judged window (the newest slot's judgement may wait

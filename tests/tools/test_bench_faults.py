@@ -719,6 +719,26 @@ def test_a_filter_converging_after_a_transient_is_not_held_as_one_pulled_down(be
     assert abs(row["error_s"]) <= 0.1
 
 
+def test_after_a_clipped_boost_a_barometer_frozen_near_apogee_does_not_pull_the_filter_down(bench_cache):
+    """The fault benchmark's C6, flight 111, both sensors: its 16 g part clips in the boost, so the
+    track bounds the velocity from below only; frozen under its noise 2.2 s before apogee, the
+    barometer pulled the filter through zero 0.81 s early. Rule 22 reads only the track's change
+    over 1.5 s, which a clip in the boost leaves whole in coast: 0.14 s late (D16 rule 22)."""
+    from desktop.io.rocket_file import load_rocket
+
+    name, flight = "c6_model", 111
+    nominal = bench.trajectory(name, 1, None, bench_cache)
+    spec = load_rocket(bench._rocket_path(name))
+    main_m = spec.main.deploy_altitude_m if spec.main is not None else None
+    user = bench.user_settings(nominal, main_m)
+    rows = bench.evaluate((name, bench.ROCKETS.index(name), flight % bench.DEFAULT_TRAJECTORIES, [flight], 1,
+                           bench_cache, user, nominal.max_mach, (("both",), {"baro_frozen_noisy"},
+                                                                ("flight-computer",))))
+    (row,) = [r for r in rows if r["class"] == "baro_frozen_noisy"]
+    assert row["fault"]["phase"] == "apogee"
+    assert -EARLY_S <= row["error_s"] <= EARLY_S
+
+
 def test_a_clipped_boost_still_holds_the_filter_while_the_barometer_climbs_as_a_rocket(bench_cache):
     """The fault benchmark's C6, flight 133, both sensors: its part clips in the boost, so the
     track bounds the velocity from below only. 15 m low from 2.3 s before apogee, within 0.4 s,
