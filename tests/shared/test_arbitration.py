@@ -39,6 +39,7 @@ from shared.health import (
     SensorHealth,
     check_health,
 )
+from shared.physics import G_MMPS2
 from tests.support.fault_flight import (
     MACH_ROCKET,
     SUBSONIC_ROCKET,
@@ -220,6 +221,16 @@ def test_the_drift_test_knows_the_coast_by_the_flights_any_speed():
     # the flight sets the change test's speed limit to its "any speed" in coast; the drift test
     # (D16 rule 21) reads the coast from that value, the track's own limit
     assert flight_module._ANY_SPEED_MMPS == arbitration_module._VEL_LIMIT_MMPS
+
+
+def test_rule_22_reads_the_arbitrations_history_in_its_own_units():
+    # D16 rule 22 reads the arbitration's history from shared/flight.py: its stillness compares
+    # two whole windows, one window apart, against half of g over a window, and its fall spans
+    # less than the history holds
+    assert flight_module._STOOD_SLOTS == arbitration_module._WINDOW_SLOTS
+    window_s = arbitration_module._WINDOW_SLOTS * arbitration_module._SLOT_MS / 1000
+    assert abs(flight_module._STOOD_MMPS - G_MMPS2 * window_s / 2) < 1
+    assert flight_module._FALL_SLOTS < arbitration_module._HISTORY_SLOTS
 
 
 def test_a_transient_decaying_as_gravity_after_a_clipped_boost_holds_no_descent():

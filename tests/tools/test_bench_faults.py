@@ -671,6 +671,21 @@ def bench_cache(tmp_path_factory):
     return tmp_path_factory.mktemp("fault_cache")
 
 
+def _bench_row(bench_cache, name, flight, kind, **config):
+    """The fault benchmark's run of rocket ``name``, flight ``flight``, class ``kind``, both
+    sensors, flight computer, with the user settings docs/CONFIG.md gives (and ``config``)."""
+    from desktop.io.rocket_file import load_rocket
+
+    nominal = bench.trajectory(name, 1, None, bench_cache)
+    spec = load_rocket(bench._rocket_path(name))
+    main_m = spec.main.deploy_altitude_m if spec.main is not None else None
+    user = dict(bench.user_settings(nominal, main_m), **config)
+    rows = bench.evaluate((name, bench.ROCKETS.index(name), flight % bench.DEFAULT_TRAJECTORIES, [flight], 1,
+                           bench_cache, user, nominal.max_mach, (("both",), {kind}, ("flight-computer",))))
+    (row,) = [r for r in rows if r["class"] == kind]
+    return row
+
+
 @pytest.mark.parametrize("config, early", [
     ({}, False),
     ({"dead_reckoning_guard_mps": 50}, False),
@@ -685,16 +700,7 @@ def test_a_floor_set_at_the_exclusion_holds_a_decay_without_the_dead_reckoning(b
     held it to 0.46 s early. Calibrated against the barometer (D16 rule 7) the guard holds it to
     0.10 s early; with the guard off (`dead_reckoning_guard_mps` beyond any velocity here) the
     floor alone holds it to 0.48 s early, and neither 1.29 s early."""
-    from desktop.io.rocket_file import load_rocket
-
-    name, flight = "k400_dual_deploy", 138
-    nominal = bench.trajectory(name, 1, None, bench_cache)
-    main_m = load_rocket(bench._rocket_path(name)).main.deploy_altitude_m
-    user = dict(bench.user_settings(nominal, main_m), **config)
-    rows = bench.evaluate((name, bench.ROCKETS.index(name), flight % bench.DEFAULT_TRAJECTORIES, [flight], 1,
-                           bench_cache, user, nominal.max_mach, (("both",), {"transient_midcoast"},
-                                                                ("flight-computer",))))
-    (row,) = [r for r in rows if r["class"] == "transient_midcoast"]
+    row = _bench_row(bench_cache, "k400_dual_deploy", 138, "transient_midcoast", **config)
     assert abs(row["fault"]["dh_m"] - 282.6) < 0.1  # the flight traced in docs/DESIGN.md
     assert (row["error_s"] < -EARLY_S) == early
 
@@ -705,16 +711,7 @@ def test_a_filter_converging_after_a_transient_is_not_held_as_one_pulled_down(be
     crosses zero at the apogee, its fall then leading the track's by more than the margin, as a
     filter pulled down by a frozen barometer does; but the barometer's rate falls with the coast:
     no hold (D16 rule 22's stillness; without it 2.97 s late, the backup timer)."""
-    from desktop.io.rocket_file import load_rocket
-
-    name, flight = "j360_sport", 102
-    nominal = bench.trajectory(name, 1, None, bench_cache)
-    main_m = load_rocket(bench._rocket_path(name)).main.deploy_altitude_m
-    user = bench.user_settings(nominal, main_m)
-    rows = bench.evaluate((name, bench.ROCKETS.index(name), flight % bench.DEFAULT_TRAJECTORIES, [flight], 1,
-                           bench_cache, user, nominal.max_mach, (("both",), {"transient_midcoast"},
-                                                                ("flight-computer",))))
-    (row,) = [r for r in rows if r["class"] == "transient_midcoast"]
+    row = _bench_row(bench_cache, "j360_sport", 102, "transient_midcoast")
     assert abs(row["fault"]["dh_m"] - 236.1) < 0.1  # the flight traced in docs/BENCHMARKS.md
     assert abs(row["error_s"]) <= 0.1
 
@@ -724,17 +721,7 @@ def test_after_a_clipped_boost_a_barometer_frozen_near_apogee_does_not_pull_the_
     track bounds the velocity from below only; frozen under its noise 2.2 s before apogee, the
     barometer pulled the filter through zero 0.81 s early. Rule 22 reads only the track's change
     over 1.5 s, which a clip in the boost leaves whole in coast: 0.14 s late (D16 rule 22)."""
-    from desktop.io.rocket_file import load_rocket
-
-    name, flight = "c6_model", 111
-    nominal = bench.trajectory(name, 1, None, bench_cache)
-    spec = load_rocket(bench._rocket_path(name))
-    main_m = spec.main.deploy_altitude_m if spec.main is not None else None
-    user = bench.user_settings(nominal, main_m)
-    rows = bench.evaluate((name, bench.ROCKETS.index(name), flight % bench.DEFAULT_TRAJECTORIES, [flight], 1,
-                           bench_cache, user, nominal.max_mach, (("both",), {"baro_frozen_noisy"},
-                                                                ("flight-computer",))))
-    (row,) = [r for r in rows if r["class"] == "baro_frozen_noisy"]
+    row = _bench_row(bench_cache, "c6_model", 111, "baro_frozen_noisy")
     assert row["fault"]["phase"] == "apogee"
     assert -EARLY_S <= row["error_s"] <= EARLY_S
 
@@ -746,15 +733,6 @@ def test_a_clipped_boost_still_holds_the_filter_while_the_barometer_climbs_as_a_
     it fired 0.60 s early with the barometer climbing at 10 m/s as a coasting rocket does. The
     lower tier of D16 rule 17 reads the track's change over a window, not its level, which a clip
     leaves whole in coast: 0.26 s early."""
-    from desktop.io.rocket_file import load_rocket
-
-    name, flight = "c6_model", 133
-    nominal = bench.trajectory(name, 1, None, bench_cache)
-    spec = load_rocket(bench._rocket_path(name))
-    user = bench.user_settings(nominal, spec.main.deploy_altitude_m if spec.main is not None else None)
-    rows = bench.evaluate((name, bench.ROCKETS.index(name), flight % bench.DEFAULT_TRAJECTORIES, [flight], 1,
-                           bench_cache, user, nominal.max_mach, (("both",), {"transient_midcoast"},
-                                                                ("flight-computer",))))
-    (row,) = [r for r in rows if r["class"] == "transient_midcoast"]
+    row = _bench_row(bench_cache, "c6_model", 133, "transient_midcoast")
     assert abs(row["fault"]["dh_m"] + 14.6) < 0.1  # the flight traced in docs/DESIGN.md
     assert -EARLY_S <= row["error_s"] <= 0.5
