@@ -596,12 +596,12 @@ class FlightComputer:
                 # reads as a motor lit: the barometer, not the part, must then end that boost)
                 kf.acc_q4 = acc_kin << 4 if acc_kin < _CLIP_ACC_LIMIT_MMPS2 else RATE_LIMIT_Q4
             apogee = det.step(dt_us, alt_mm, acc_kin, have, filter_decides)
-            arb = self.arb
-            if apogee and arb.valid:
+            if apogee and self.arb.valid:
                 # D16 rule 22 (_FALL_SLOTS): the filter's velocity 1.5 s ago, the track's change
                 # since and the margin grown since, and the barometer's rate against the track's
                 # over the 0.5 s to the newest judged window (the newest slot's judgement may wait
                 # a sample; an unjudged one fails the test; a negative index wraps the history)
+                arb = self.arb
                 head = arb._head
                 far = head - _FALL_SLOTS
                 fell = arb._fvel[far]
@@ -612,7 +612,7 @@ class FlightComputer:
                         and _STOOD_MMPS < stood < _ANY_SPEED_MMPS):
                     det.withdraw_apogee()
                     apogee = False
-            if apogee and climbs_fast(arb, _BARO_CLIMB_HOLD_MMPS, _BARO_CLIMB_FAST_MMPS):
+            if apogee and climbs_fast(self.arb, _BARO_CLIMB_HOLD_MMPS, _BARO_CLIMB_FAST_MMPS):
                 # D16 rule 17: nor, while the accelerometer's track runs, while the barometer climbs
                 # fast (faster than 20 m/s with the track bounding both sides; faster than 6 m/s
                 # as a coasting rocket climbs). At a true apogee its 0.5 s window reads about
