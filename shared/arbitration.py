@@ -124,6 +124,13 @@ _NEAR_MM = const(10000)
 # alone allows, or by more than the track's, by more than this (plus three times its pad noise)
 # is no climb (D16 rule 17) but a negative transient's return, setting in or decaying
 _NOT_MOTION_MMPS = const(2000)
+# A coasting rocket's rate falls with the track's, by g x 0.5 s over a window, and passes zero
+# only at apogee; a frozen reading's stands at zero, so that it rises against the track's by that
+# much: by more than half of it, its own rate within half of it of zero and changed by less than
+# that (a transient's decay can rise as fast as gravity lowers the rocket's, but at the rate of
+# its lie), the barometer stands still (``reads_no_climb``, D16 rule 23; rule 22's _STOOD_MMPS
+# in shared/flight.py)
+_STILL_MMPS = const(2452)
 
 
 # shared.physics's G_MMPS2, folded here: on MicroPython an imported constant is a global
@@ -350,11 +357,28 @@ class Arbitration:
         return apart > lie_mm + grown_mps * dt_ms
 
     def reads_no_climb(self):
-        """The newest window's rate lies within ``baro_readmit_mps`` plus three times the learnt
-        noise of zero: a barometer at rest (docs/DESIGN.md D16 rule 20). (A method: it runs on
-        the rare samples that take the barometer back.)"""
-        tol = self.readmit_tol_mmps + _CHANGE_NOISE_K * self._change_avg_mmps
-        return -tol < self.baro_rate_mmps < tol
+        """0 while the newest window's rate lies farther from zero than ``baro_readmit_mps`` plus
+        three times the learnt noise; 1 within it, a barometer at rest (docs/DESIGN.md D16 rule
+        20); 2 standing still at zero (rule 23): that rate within _STILL_MMPS plus three times
+        the noise of zero, and over the window to the newest judged one it rose against the
+        track's by more than _STILL_MMPS and itself changed by less than that plus three times
+        the noise. (A method: it runs on the rare samples that take the barometer back.)"""
+        noise = _CHANGE_NOISE_K * self._change_avg_mmps
+        rate = self.baro_rate_mmps
+        tol = self.readmit_tol_mmps + noise
+        if not -tol < rate < tol:
+            return 0
+        tol = _STILL_MMPS + noise
+        if not -tol < rate < tol:
+            return 1
+        # (the newest slot's judgement may wait a sample; an unjudged window fails; a negative
+        # index wraps the history)
+        head = self._head - 1
+        far = head - _WINDOW_SLOTS
+        rose = self._diff[head] - self._diff[far]
+        if _STILL_MMPS < rose < _VEL_LIMIT_MMPS and -tol < rose - (self._vel[far] - self._vel[head]) < tol:
+            return 2
+        return 1
 
     def climbs_away(self, filter_alt_mm, floor_mmps):
         """The barometer climbs fast (``climbs_fast``) and its newest slot reads above

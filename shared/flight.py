@@ -1325,19 +1325,29 @@ def _arbitrate(fc, now_ms, state, alt_mm, accel_mmps2, acc_kin, have, clipped):
             note_reference(arb)
         fc._baro_coast_ms = coast_ms + dt_ms
     old = fc.mode
-    if (mode != old and mode == MODE_BOTH and not old & MODE_BARO and FAST <= state <= COAST
-            and arb.reads_no_climb()
-            and arb.parted_beyond_lie(fc.kf.alt_q4 >> 4, now_ms, arb.transient_max_mm if state == COAST
-                                      else arb.lie_max_mm, False, True)):
-        # a barometer that would come back below the accelerometer-carried filter farther than a
-        # transient can lie (above the Mach lockout, than a static-port error), reading no climb,
-        # lies low (frozen under its noise): retired for the flight, and the accelerometer-only
-        # apogee decides (D16 rule 20). After a clipped boost too: the clip under-reads, so the
-        # filter it carried lies below the rocket (and the backup timer decides: a clipped track
-        # bounds nothing from above)
-        fc.health.retire_baro()
-        fc.baro_excluded = True
-        mode = MODE_ACCEL
+    if mode != old and mode == MODE_BOTH and not old & MODE_BARO and FAST <= state <= COAST:
+        rest = arb.reads_no_climb()
+        if rest and arb.parted_beyond_lie(fc.kf.alt_q4 >> 4, now_ms, arb.transient_max_mm if state == COAST
+                                          else arb.lie_max_mm, False, True):
+            # a barometer that would come back below the accelerometer-carried filter farther
+            # than a transient can lie (above the Mach lockout, than a static-port error), reading
+            # no climb, lies low (frozen under its noise): retired for the flight, and the
+            # accelerometer-only apogee decides (D16 rule 20). After a clipped boost too: the clip
+            # under-reads, so the filter it carried lies below the rocket (and the backup timer
+            # decides: a clipped track bounds nothing from above)
+            fc.health.retire_baro()
+            fc.baro_excluded = True
+            mode = MODE_ACCEL
+        elif rest > 1:
+            # nor does one that reads no climb and stands still come back: a coasting rocket's
+            # rate falls with the track's and passes zero only at apogee (D16 rule 23). Held out,
+            # not retired: a window that falls with the coast takes it back. A barometer frozen
+            # under its noise 11.7 s before apogee, left out within 0.3 s, came back 5 s before
+            # apogee inside the tolerance the track's margin had grown to (its rate 0, the
+            # velocity carried 45 to 52 m/s), and the filter, in the late coast's model, followed
+            # it through zero 0.6 to 1.2 s early
+            fc.baro_excluded = True
+            mode = MODE_ACCEL
     if mode != old:
         if old & MODE_BARO and not mode & MODE_BARO:
             fc._filter_anchored = fc._baro_coast_ms >= _ANCHORED_MS

@@ -210,11 +210,15 @@ def test_a_barometer_frozen_under_its_noise_near_apogee_is_left_out(rocket, befo
     # transient of the filter: the filter followed it through zero 0.86, 1.59, 1.20 and 1.60 s
     # early. Over 1.5 s the accelerometer knows the change of velocity to its budget: ten windows
     # in a row whose rate fell that much faster than the track's leave the barometer out
-    # (docs/DESIGN.md D16 rule 21), and the accelerometer-only apogee decides: 0.01 s early to
-    # 0.16 s late
+    # (docs/DESIGN.md D16 rule 21). Taken back reading no climb, it had the filter decide again
+    # (0.01 s early to 0.16 s late, as rule 22 then held it); standing still, it stays out (rule
+    # 23), and the accelerometer-only apogee decides, late by at most the margin grown since the
+    # anchor / g (rule 4): measured 0.01 s early to 1.63 s late, that margin 1.1 to 1.7 s of g
     nominal = flight(rocket)
     fl = flight(rocket, Faults(baro_frozen_at_s=nominal.apogee_s - before_s, baro_frozen_noisy=True))
-    drogue_near_apogee(fl)
+    out = drogue_near_apogee(fl, late_s=2.0)
+    arb = out.fc.arb
+    assert -out.early_s <= (arb.margin_mmps - arb.anchor_margin_mmps) / G_MMPS2 + 0.05
 
 
 def test_the_drift_test_knows_the_coast_by_the_flights_any_speed():
@@ -223,13 +227,46 @@ def test_the_drift_test_knows_the_coast_by_the_flights_any_speed():
     assert flight_module._ANY_SPEED_MMPS == arbitration_module._VEL_LIMIT_MMPS
 
 
+def _coasting_arbitration(baro_alt_m):
+    """An arbitration over 3 s of a coast from 30 m/s at -g (the track's reading), its barometer
+    reading ``baro_alt_m(t_s)`` at 100 Hz, its noise learnt as none (a quiet pad)."""
+    arb = Arbitration(load_config({}))
+    arb.note_burnout()
+    arb.start(30000)
+    for k in range(300):
+        now_ms = 10 * (k + 1)
+        if arb.judge_due:
+            judge_late(arb)
+        integrate(arb, 10, -G_MMPS2, 0, False)
+        if add_baro(arb, now_ms, round(1000 * baro_alt_m(now_ms / 1000)), True):
+            close_slot(arb, now_ms, 0, 0, True)
+    return arb
+
+
+@pytest.mark.parametrize("baro_alt_m, rests", [
+    (lambda t: 1000.0, 2),
+    (lambda t: 1000 + 30 * t - G_MMPS2 / 2000 * t * t, 1),
+    (lambda t: 1000 + 10 * (t - 2.75) ** 2, 1),
+    (lambda t: 1000 - 10 * t, 1),
+    (lambda t: 1000 + 30 * t, 0),
+], ids=["frozen", "coasting-through-apogee", "rising-through-zero", "standing-at-10-mps", "climbing"])
+def test_a_barometer_stands_still_only_at_zero_and_unmoved(baro_alt_m, rests):
+    # a frozen reading stands at zero while the track falls by g: still (D16 rule 23); a coasting
+    # rocket's rate passes zero falling with the track's, a transient's decay rising through it
+    # (here at 20 m/s^2), or standing where its rise and gravity cancel (at -10 m/s; the fault
+    # benchmark's J360, flight 126, at -21 to -30 m/s): at rest, not still; climbing at 30 m/s: no
+    # rest at all
+    assert _coasting_arbitration(baro_alt_m).reads_no_climb() == rests
+
+
 def test_rule_22_reads_the_arbitrations_history_in_its_own_units():
     # D16 rule 22 reads the arbitration's history from shared/flight.py: its stillness compares
-    # two whole windows, one window apart, against half of g over a window, and its fall spans
-    # less than the history holds
+    # two whole windows, one window apart, against half of g over a window (as rule 23's in the
+    # arbitration), and its fall spans less than the history holds
     assert flight_module._STOOD_SLOTS == arbitration_module._WINDOW_SLOTS
     window_s = arbitration_module._WINDOW_SLOTS * arbitration_module._SLOT_MS / 1000
     assert abs(flight_module._STOOD_MMPS - G_MMPS2 * window_s / 2) < 1
+    assert arbitration_module._STILL_MMPS == flight_module._STOOD_MMPS
     assert flight_module._FALL_SLOTS < arbitration_module._HISTORY_SLOTS
 
 
@@ -646,10 +683,13 @@ def test_dead_reckoning_guard_is_needed(monkeypatch, rocket):
     assert abs(run(fl, **config).early_s) <= 0.15
     monkeypatch.setattr(Arbitration, "dead_reckoned_mmps", lambda self: -10 ** 9)
     # measured: 0.94 s, 0.88 s (1.55 s and 1.50 s before the change test's readmission tolerance).
-    # The ballistic floor set at the exclusion (D16 rule 10) and, on the Mach 1.4 flight, the
-    # filter's fall against the track (rule 22) hold this flight too: they are off here, so that
-    # the test speaks for the guard
+    # The ballistic floor set at the exclusion (D16 rule 10), the stillness that holds a barometer
+    # out (rule 23: the decay's rate rises as gravity lowers the rocket's) and, on the Mach 1.4
+    # flight, the filter's fall against the track (rule 22) hold this flight too: they are off
+    # here, so that the test speaks for the guard
     monkeypatch.setattr(flight_module, "_FALL_SLOTS", 0)
+    reads_no_climb = Arbitration.reads_no_climb
+    monkeypatch.setattr(Arbitration, "reads_no_climb", lambda self: min(reads_no_climb(self), 1))
     assert run(fl, baro_ballistic_mps=0, **config).early_s > EARLY_LIMIT_S
 
 

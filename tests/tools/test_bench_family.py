@@ -147,9 +147,11 @@ def test_a_barometer_frozen_near_apogee_is_left_out_by_its_drift():
     its noise 4.7 s before apogee at 46 m/s. The rate falls to zero within a window, inside the
     change test's 30 m/s and the track's 110 m/s margin, and the filter followed it through zero:
     2.82 s early at 28 m/s. The barometer's rate fell faster than the track's over 1.5 s for ten
-    windows in a row, and it is left out (docs/DESIGN.md D16 rule 21): 0.06 s late."""
+    windows in a row, and it is left out (docs/DESIGN.md D16 rule 21). Taken back reading no
+    climb, 0.06 s late; standing still, it stays out (rule 23) and the accelerometer-only apogee
+    decides, late by the margin grown since the anchor: 2.04 s, before the backup timer."""
     (row,) = bench_family.fly_rocket((5, 117, ("baro_frozen_noisy",), ("both",)))
-    assert -0.5 <= row["error_s"] <= 0.3
+    assert -0.5 <= row["error_s"] <= 3.2
 
 
 def test_the_drift_is_judged_over_the_barometers_own_use():

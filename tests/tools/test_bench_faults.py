@@ -726,6 +726,28 @@ def test_after_a_clipped_boost_a_barometer_frozen_near_apogee_does_not_pull_the_
     assert -EARLY_S <= row["error_s"] <= EARLY_S
 
 
+def test_a_frozen_barometer_standing_still_is_not_taken_back(bench_cache):
+    """The fault benchmark's K400, flight 44, both sensors: frozen under its noise 11.7 s before
+    apogee at 140 m/s, its rate fell to zero within 0.3 s and it was left out, while the filter's
+    bias estimate, pulled to its bound, left the filter 13 m/s slow. 6.2 s later, reading no
+    climb against a velocity carried at 45 to 52 m/s, it came back inside the tolerance the
+    track's margin had grown to, and the filter followed it through zero: 1.17 s early at 11 m/s.
+    Its rate stood while the track's fell by g: held out (D16 rule 23), the accelerometer-only
+    apogee decides, late by the margin grown since the anchor: 1.75 s, before the backup timer."""
+    row = _bench_row(bench_cache, "k400_dual_deploy", 44, "baro_frozen_noisy")
+    assert row["fault"]["phase"] == "coast"
+    assert -EARLY_S <= row["error_s"] < 3.0
+
+
+def test_a_decay_standing_where_gravity_cancels_it_is_taken_back(bench_cache):
+    """The fault benchmark's J360, flight 126, both sensors: +196 m at 11.9 s decaying over 2.7 s.
+    Its rate, once the lie's rise had slowed to gravity's fall, stood at -21 to -30 m/s, inside
+    the readmission's tolerance: not at zero, so not still (D16 rule 23), and it comes back:
+    0.06 s late (1.57 s held out as a frozen reading)."""
+    row = _bench_row(bench_cache, "j360_sport", 126, "transient_midcoast")
+    assert abs(row["error_s"]) <= 0.3
+
+
 def test_a_clipped_boost_still_holds_the_filter_while_the_barometer_climbs_as_a_rocket(bench_cache):
     """The fault benchmark's C6, flight 133, both sensors: its part clips in the boost, so the
     track bounds the velocity from below only. 15 m low from 2.3 s before apogee, within 0.4 s,
