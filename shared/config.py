@@ -25,8 +25,9 @@ SCHEMA = {
         "the main fires by altitude only after a maximum altitude at least this far above "
         "main_deploy_m (an under-performing flight must not land on its drogue)"),
     "main_delay_s": (10, 1, 600, "s",
-        "no barometer (accelerometer-only board, or the barometer lost): the main fires this long "
-        "after the drogue; set it to (apogee - main altitude) / drogue descent rate"),
+        "no barometer (accelerometer-only board, or the barometer lost, or not descending under the "
+        "drogue) and no steady descent seen: the main fires this long after the drogue; set it to "
+        "(apogee - main altitude) / drogue descent rate"),
     "apogee_delay_s": (0, 0, 30, "s", "drogue fires this long after apogee is detected"),
     "apogee_lockout_s": (0, 0, 120, "s", "no apogee sooner than this after launch (0 = off)"),
     "backup_drogue_s": (0, 0, 600, "s",
@@ -141,7 +142,8 @@ SCHEMA = {
     "mach_lockout_s": (0, 0, 120, "s",
         "after launch: treated as above Mach (no apogee, barometer de-weighted) for this long (0 = off)"),
     "main_backup_s": (0, 0, 600, "s",
-        "barometer lost under the drogue: main fires this long after the drogue at the latest (0 = off)"),
+        "barometer lost, frozen or not descending under the drogue: main fires this long after the "
+        "drogue at the latest (0 = off)"),
 }
 CHOICES = {
     "apogee_rule": ("velocity", ("velocity", "seed"),

@@ -42,8 +42,9 @@ Transitions (``_transition``), each branch opening with its rule:
 | drogue | main | proven, the guard time after the drogue, descending; at or | `main_deploy_m`, |
 | | | below the main altitude if the maximum rose `main_margin_m` | `main_guard_s`, |
 | | | above it, else at once (barometer usable) | `main_margin_m` |
-| drogue | main | barometer lost or frozen: the last steady descent reaches | `main_delay_s`, |
-| | | the main altitude (none seen: `main_delay_s` after the drogue), | `main_backup_s` |
+| drogue | main | barometer lost or frozen (or not descending, D16 rule 24): | `main_delay_s`, |
+| | | the last steady descent reaches the main altitude (none | `main_backup_s` |
+| | | seen: `main_delay_s` after the drogue), | |
 | | | or main_backup_s after the drogue; no barometer on the board: | |
 | | | `main_delay_s` after the drogue | |
 | | | main_deploy_m 0: never (no main, a single deployment) | |
@@ -272,6 +273,15 @@ _DESCENT_MIN_MMPS = const(2000)  # a slower "descent" under a parachute is not o
 _STEADY_ACC_MMPS2 = const(2000)
 _STEADY_RATE_MMPS = const(3000)
 _STEADY_MIN_DS = const(20)  # 2 s of steady descent give its mean rate
+# Under a parachute the rocket descends steadily at drag = weight: a barometer that has not
+# descended by _DESCENT_MIN_MMPS x the time since its last steady descent, this long after it,
+# stopped reading the descent (frozen; D16 rule 24). The real logs go up to 8.7 s without a
+# steady-descent sample (swinging, quantised parts) while descending 10 to 30 m/s
+_NO_DESCENT_MS = const(3000)
+# ... and from the drogue, while no steady descent has shown: the real logs' first steady descent
+# comes 1.2 to 12 s after the drogue (an apogee's slow start, a swinging rocket), but every one of
+# them has fallen by far more than 2 m/s x 10 s by then
+_NO_DESCENT_FIRST_MS = const(10000)
 
 _RECORD_FORMAT = "<IIII"
 _RECORD_VERSION = const(3)
@@ -637,7 +647,8 @@ class FlightComputer:
             self.baro_agl_mm = alt_mm - ground_mm
             if (state == DROGUE and health.baro_moved
                     and -_STEADY_ACC_MMPS2 < kf.acc_q4 >> 4 < _STEADY_ACC_MMPS2
-                    and -_STEADY_RATE_MMPS < self.arb.baro_rate_mmps - vel_mmps < _STEADY_RATE_MMPS):
+                    and -_STEADY_RATE_MMPS < self.arb.baro_rate_mmps - vel_mmps < _STEADY_RATE_MMPS
+                    and self.arb.baro_rate_mmps < -_DESCENT_MIN_MMPS):
                 if self._steady_ms < 0:
                     self._steady_ms = now_ms  # the steady descent began
                     self._steady_agl_mm = agl_mm
@@ -698,6 +709,11 @@ class FlightComputer:
         self.arb.change_below_mmps = self.cfg.baro_change_below_mmps
         self._land_start_ms = self.now_ms
         self._land_min_mm = self._land_max_mm = self.agl_mm
+        if self.apogee_ms >= 0:
+            # at an apogee (not the backup timer: the rocket may still climb), the barometer's
+            # descent is judged from here until a steady descent shows (D16 rule 24)
+            self._good_ms = self.now_ms
+            self._good_agl_mm = self.baro_agl_mm
 
     def _fire_main(self):
         self.main_fired_ms = self.now_ms
@@ -1101,6 +1117,18 @@ def _transition(fc, cfg, state, apogee):
         elif not fc.flight_proven or since_ms < cfg.main_guard_ms:
             main = False
         elif not fc.mode & MODE_BARO:
+            main = _main_due_without_baro(fc, since_ms)
+        elif (fc._good_ms >= 0
+              and fc.now_ms - fc._good_ms >= (_NO_DESCENT_MS if fc._steady_ms >= 0 else _NO_DESCENT_FIRST_MS)
+              and fc.baro_agl_mm > fc._good_agl_mm
+              - (fc.now_ms - fc._good_ms) // 10 * (_DESCENT_MIN_MMPS // 100)):
+            # a barometer that stopped descending under the parachute, _NO_DESCENT_MS after its
+            # last steady descent (_NO_DESCENT_FIRST_MS after the drogue while none showed), by
+            # less than the slowest descent there is: frozen (under its noise, no reading
+            # repeats, so the health's stuck test cannot see it). Retired, and the main fires
+            # when the steady descent it showed predicts, else main_delay_s after the drogue
+            # (D16 rule 24); in use, it never read the main's altitude, and the main never fired
+            fc.health.retire_baro()
             main = _main_due_without_baro(fc, since_ms)
         elif fc.vel_mmps >= 0:
             main = False  # still climbing (a drogue on the backup timer): its maximum is to come
