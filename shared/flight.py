@@ -278,9 +278,10 @@ _STEADY_MIN_DS = const(20)  # 2 s of steady descent give its mean rate
 # stopped reading the descent (frozen; D16 rule 24). The real logs go up to 8.7 s without a
 # steady-descent sample (swinging, quantised parts) while descending 10 to 30 m/s
 _NO_DESCENT_MS = const(3000)
-# ... and from the drogue, while no steady descent has shown: the real logs' first steady descent
-# comes 1.2 to 12 s after the drogue (an apogee's slow start, a swinging rocket), but every one of
-# them has fallen by far more than 2 m/s x 10 s by then
+# ... and from the first sample under the drogue whose filter descends, while no steady descent
+# has shown: the real logs' first steady descent comes 1.2 to 12 s after the drogue (an apogee's
+# slow start, a swinging rocket), but every one of them has fallen by far more than 2 m/s x 10 s
+# by then
 _NO_DESCENT_FIRST_MS = const(10000)
 
 _RECORD_FORMAT = "<IIII"
@@ -709,11 +710,6 @@ class FlightComputer:
         self.arb.change_below_mmps = self.cfg.baro_change_below_mmps
         self._land_start_ms = self.now_ms
         self._land_min_mm = self._land_max_mm = self.agl_mm
-        if self.apogee_ms >= 0:
-            # at an apogee (not the backup timer: the rocket may still climb), the barometer's
-            # descent is judged from here until a steady descent shows (D16 rule 24)
-            self._good_ms = self.now_ms
-            self._good_agl_mm = self.baro_agl_mm
 
     def _fire_main(self):
         self.main_fired_ms = self.now_ms
@@ -1112,6 +1108,12 @@ def _transition(fc, cfg, state, apogee):
         # main: proven, after the guard time; at or below the main altitude descending when the
         # flight rose main_margin_m above it; without a usable barometer _main_due_without_baro
         since_ms = fc.now_ms - fc.drogue_fired_ms
+        if fc._good_ms < 0 and fc.vel_mmps < 0:
+            # the barometer's descent is judged from the first sample under the drogue that
+            # descends (after the backup timer the rocket may still climb) until a steady descent
+            # shows (D16 rule 24)
+            fc._good_ms = fc.now_ms
+            fc._good_agl_mm = fc.baro_agl_mm
         if not cfg.main_deploy_mm:
             main = False  # main_deploy_m 0: no main, a single deployment
         elif not fc.flight_proven or since_ms < cfg.main_guard_ms:
@@ -1123,11 +1125,11 @@ def _transition(fc, cfg, state, apogee):
               and fc.baro_agl_mm > fc._good_agl_mm
               - (fc.now_ms - fc._good_ms) // 10 * (_DESCENT_MIN_MMPS // 100)):
             # a barometer that stopped descending under the parachute, _NO_DESCENT_MS after its
-            # last steady descent (_NO_DESCENT_FIRST_MS after the drogue while none showed), by
-            # less than the slowest descent there is: frozen (under its noise, no reading
-            # repeats, so the health's stuck test cannot see it). Retired, and the main fires
-            # when the steady descent it showed predicts, else main_delay_s after the drogue
-            # (D16 rule 24); in use, it never read the main's altitude, and the main never fired
+            # last steady descent (_NO_DESCENT_FIRST_MS after the first descending sample while
+            # none showed), by less than the slowest descent there is: frozen (under its noise,
+            # no reading repeats, so the health's stuck test cannot see it). Retired, and the
+            # main fires when the steady descent it showed predicts, else main_delay_s after the
+            # drogue (D16 rule 24); in use, it never read the main's altitude, and no main fired
             fc.health.retire_baro()
             main = _main_due_without_baro(fc, since_ms)
         elif fc.vel_mmps >= 0:
