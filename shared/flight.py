@@ -278,10 +278,10 @@ _STEADY_MIN_DS = const(20)  # 2 s of steady descent give its mean rate
 # stopped reading the descent (frozen; D16 rule 24). The real logs go up to 8.7 s without a
 # steady-descent sample (swinging, quantised parts) while descending 10 to 30 m/s
 _NO_DESCENT_MS = const(3000)
-# ... and from the first sample under the drogue whose filter descends, while no steady descent
-# has shown: the real logs' first steady descent comes 1.2 to 12 s after the drogue (an apogee's
-# slow start, a swinging rocket), but every one of them has fallen by far more than 2 m/s x 10 s
-# by then
+# ... and from the first sample under the drogue, while no steady descent has shown: the real
+# logs' first steady descent comes 1.2 to 12 s after the drogue (an apogee's slow start, a
+# swinging rocket), but every one of them has fallen by far more than 2 m/s x 10 s by then (a
+# drogue on the backup timer in the climb: its barometer climbs, and moves as much)
 _NO_DESCENT_FIRST_MS = const(10000)
 
 _RECORD_FORMAT = "<IIII"
@@ -1108,10 +1108,9 @@ def _transition(fc, cfg, state, apogee):
         # main: proven, after the guard time; at or below the main altitude descending when the
         # flight rose main_margin_m above it; without a usable barometer _main_due_without_baro
         since_ms = fc.now_ms - fc.drogue_fired_ms
-        if fc._good_ms < 0 and fc.vel_mmps < 0:
-            # the barometer's descent is judged from the first sample under the drogue that
-            # descends (after the backup timer the rocket may still climb) until a steady descent
-            # shows (D16 rule 24)
+        if fc._good_ms < 0:
+            # the barometer's stillness is judged from the first sample under the drogue (or
+            # after a reset) until a steady descent shows (D16 rule 24)
             fc._good_ms = fc.now_ms
             fc._good_agl_mm = fc.baro_agl_mm
         if not cfg.main_deploy_mm:
@@ -1122,14 +1121,19 @@ def _transition(fc, cfg, state, apogee):
             main = _main_due_without_baro(fc, since_ms)
         elif (fc._good_ms >= 0
               and fc.now_ms - fc._good_ms >= (_NO_DESCENT_MS if fc._steady_ms >= 0 else _NO_DESCENT_FIRST_MS)
-              and fc.baro_agl_mm > fc._good_agl_mm
-              - (fc.now_ms - fc._good_ms) // 10 * (_DESCENT_MIN_MMPS // 100)):
-            # a barometer that stopped descending under the parachute, _NO_DESCENT_MS after its
-            # last steady descent (_NO_DESCENT_FIRST_MS after the first descending sample while
-            # none showed), by less than the slowest descent there is: frozen (under its noise,
-            # no reading repeats, so the health's stuck test cannot see it). Retired, and the
-            # main fires when the steady descent it showed predicts, else main_delay_s after the
-            # drogue (D16 rule 24); in use, it never read the main's altitude, and no main fired
+              and -_DESCENT_MIN_MMPS < fc.arb.baro_rate_mmps < _DESCENT_MIN_MMPS
+              and -(fc.now_ms - fc._good_ms) // 10 * (_DESCENT_MIN_MMPS // 100)
+              < fc.baro_agl_mm - fc._good_agl_mm
+              < (fc.now_ms - fc._good_ms) // 10 * (_DESCENT_MIN_MMPS // 100)):
+            # a barometer that stands still under the parachute: _NO_DESCENT_MS after its last
+            # steady descent (_NO_DESCENT_FIRST_MS after the first sample under the drogue while
+            # none showed) it has moved by less than the slowest descent there is x that time, and
+            # its newest window's rate is within that speed of zero (an ejection's transient,
+            # decaying, holds the reading up for seconds while its rate descends; one's return
+            # climbs): frozen (under its noise, no reading repeats, so the health's stuck test
+            # cannot see it). Retired, and the main fires when the steady descent it showed
+            # predicts, else main_delay_s after the drogue (D16 rule 24); in use, it never read
+            # the main's altitude, and no main fired
             fc.health.retire_baro()
             main = _main_due_without_baro(fc, since_ms)
         elif fc.vel_mmps >= 0:

@@ -748,6 +748,17 @@ def test_a_decay_standing_where_gravity_cancels_it_is_taken_back(bench_cache):
     assert abs(row["error_s"]) <= 0.3
 
 
+def test_an_ejection_transient_under_the_drogue_does_not_retire_the_barometer(bench_cache):
+    """The fault benchmark's M1670 3 km, flight 107, both sensors: at the drogue the barometer
+    jumps about 200 m (the ejection) and decays for seconds, so 10 s after the first descending
+    sample it still reads above that sample's reading, though its rate descends at 20 m/s. A
+    frozen barometer's rate stands at zero: rule 24 waits for that too (D16 rule 24), and the
+    main fires at its altitude (683 m, 283 m high, on the prediction with the altitude test
+    alone)."""
+    row = _bench_row(bench_cache, "m1670_3km", 107, "transient_burnout")
+    assert abs(row["altitude_at_main_m"] - row["main_set_m"]) <= 20
+
+
 def test_a_clipped_boost_still_holds_the_filter_while_the_barometer_climbs_as_a_rocket(bench_cache):
     """The fault benchmark's C6, flight 133, both sensors: its part clips in the boost, so the
     track bounds the velocity from below only. 15 m low from 2.3 s before apogee, within 0.4 s,
