@@ -1107,24 +1107,25 @@ def _transition(fc, cfg, state, apogee):
     elif state == DROGUE:
         # main: proven, after the guard time; at or below the main altitude descending when the
         # flight rose main_margin_m above it; without a usable barometer _main_due_without_baro
-        since_ms = fc.now_ms - fc.drogue_fired_ms
+        now_ms = fc.now_ms
+        since_ms = now_ms - fc.drogue_fired_ms
         if fc._good_ms < 0:
             # the barometer's stillness is judged from the first sample under the drogue (or
             # after a reset) until a steady descent shows (D16 rule 24)
-            fc._good_ms = fc.now_ms
+            fc._good_ms = now_ms
             fc._good_agl_mm = fc.baro_agl_mm
+        still_ms = now_ms - fc._good_ms
         if not cfg.main_deploy_mm:
             main = False  # main_deploy_m 0: no main, a single deployment
         elif not fc.flight_proven or since_ms < cfg.main_guard_ms:
             main = False
         elif not fc.mode & MODE_BARO:
             main = _main_due_without_baro(fc, since_ms)
-        elif (fc._good_ms >= 0
-              and fc.now_ms - fc._good_ms >= (_NO_DESCENT_MS if fc._steady_ms >= 0 else _NO_DESCENT_FIRST_MS)
+        elif (still_ms >= (_NO_DESCENT_MS if fc._steady_ms >= 0 else _NO_DESCENT_FIRST_MS)
               and -_DESCENT_MIN_MMPS < fc.arb.baro_rate_mmps < _DESCENT_MIN_MMPS
-              and -(fc.now_ms - fc._good_ms) // 10 * (_DESCENT_MIN_MMPS // 100)
+              and -still_ms // 10 * (_DESCENT_MIN_MMPS // 100)
               < fc.baro_agl_mm - fc._good_agl_mm
-              < (fc.now_ms - fc._good_ms) // 10 * (_DESCENT_MIN_MMPS // 100)):
+              < still_ms // 10 * (_DESCENT_MIN_MMPS // 100)):
             # a barometer that stands still under the parachute: _NO_DESCENT_MS after its last
             # steady descent (_NO_DESCENT_FIRST_MS after the first sample under the drogue while
             # none showed) it has moved by less than the slowest descent there is x that time, and

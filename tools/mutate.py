@@ -496,8 +496,8 @@ MUTANTS = [
      "                        ):\n",
      "tests/tools/test_bench_faults.py::test_a_filter_converging_after_a_transient_is_not_held_as_one_pulled_down"),
     ("a-barometer-that-stops-descending-under-the-drogue-is-retired", FLIGHT,
-     "        elif (fc._good_ms >= 0\n",
-     "        elif (False\n",
+     "        elif (still_ms >= (_NO_DESCENT_MS",
+     "        elif (False and still_ms >= (_NO_DESCENT_MS",
      ARB_TESTS + "::test_main_when_the_barometer_dies_under_the_drogue[30-frozen_noisy]"),
     ("no-descent-is-judged-from-the-drogue", FLIGHT,
      "        if fc._good_ms < 0:\n",
@@ -508,9 +508,9 @@ MUTANTS = [
      "):\n",
      ARB_TESTS + "::test_main_when_the_barometer_dies_under_the_drogue[60-frozen_noisy]"),
     ("no-descent-only-while-the-barometer-does-not-move", FLIGHT,
-     "\n              and -(fc.now_ms - fc._good_ms) // 10 * (_DESCENT_MIN_MMPS // 100)\n"
+     "\n              and -still_ms // 10 * (_DESCENT_MIN_MMPS // 100)\n"
      "              < fc.baro_agl_mm - fc._good_agl_mm\n"
-     "              < (fc.now_ms - fc._good_ms) // 10 * (_DESCENT_MIN_MMPS // 100)):\n",
+     "              < still_ms // 10 * (_DESCENT_MIN_MMPS // 100)):\n",
      "):\n",
      ARB_TESTS + "::test_real_logs_hold_values_without_a_frozen_flag"),
     ("no-descent-only-while-the-rate-stands", FLIGHT,
