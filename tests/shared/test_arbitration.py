@@ -756,6 +756,20 @@ def test_real_logs_hold_values_without_a_frozen_flag():
         assert not faults, (path.name, [(e.time_s, e.detail) for e in faults])
 
 
+@pytest.mark.parametrize("sign", [1, -1])
+def test_a_reading_at_the_full_scale_is_not_used(sign):
+    # a 16 g part (full scale 98 % of 16 g: shared/config.py) in a 20 g boost: its readings at
+    # full scale under-read, so the sample's usable readings are the barometer's alone, as for a
+    # pressure outside the altitude table; a reading just inside the scale is used
+    config = load_config({"accel_range_g": 16})
+    health = SensorHealth(config)
+    health.start_watch(config)
+    limit = config.accel_limit_mmps2
+    for i, acc in enumerate([limit - 900, limit - 400, limit, limit + 3000, limit - 1]):
+        usable = check_health(health, 10 * i, 10, 100000 + 500 * i, sign * acc, HAVE_BOTH, True)
+        assert usable == (HAVE_BARO if acc >= limit else HAVE_BOTH), (i, acc)
+
+
 @pytest.mark.parametrize("held_samples, clipped", [(2, False), (4, False), (6, True), (60, True)])
 def test_a_reading_held_at_the_flights_peak_is_clipped_only_when_held(held_samples, clipped):
     # 100 Hz, in flight: a noisy boost rising to 150 m/s^2, then one reading repeated. Two or

@@ -177,6 +177,28 @@ def test_apogee_gate_uses_the_measured_acceleration_not_the_coast_clamp():
         assert first(events, EV_APOGEE) is None and not pyro, events
 
 
+@pytest.mark.parametrize("sensors", ["both", "baro"])
+def test_apogee_gate_needs_a_coasts_averaged_deceleration(sensors):
+    # the gate itself, on the sample before a clean flight's apogee: it passes at a coast's
+    # deceleration and holds below coast_decel_mps2 (a user's 9 m/s^2; the default equals the
+    # filter's coast clamp, so in a flight only a boost's lagging average reaches it) and beyond
+    # 10 g (a filter swinging from a large error). No flight of the benchmarks isolates the gate:
+    # on two-sensor boards the accelerometer's own coast is the measured check, without one the
+    # 2 g of D16 rule 12 is tighter
+    from shared.flight import _apogee_enabled
+
+    dts, alts, accs, truth, apogee = flight(after_apogee_s=5)
+    have = HAVE_BARO if sensors == "baro" else HAVE_BOTH
+    fc = FlightComputer(load_config({"sensors": sensors, "coast_decel_mps2": 9}))
+    for i in range(apogee):
+        fc.step(int(dts[i]), int(alts[i]), int(accs[i]), have)
+    cfg = fc.cfg
+    assert fc.drogue_fired_ms < 0 and _apogee_enabled(fc, cfg, fc.now_ms)
+    for decel_mmps2, passes in [(8500, False), (9500, True), (25000, sensors == "both"), (99000, False)]:
+        fc.acc_avg_q4 = -decel_mmps2 << 4
+        assert bool(_apogee_enabled(fc, cfg, fc.now_ms)) == passes, decel_mmps2
+
+
 # -- finding 3: one bad barometer reading on the launch sample became the ground -----------------
 
 @pytest.mark.parametrize("glitch_m", [60, -80, 300])
