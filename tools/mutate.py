@@ -188,7 +188,8 @@ MUTANTS = [
     ("a-track-ended-by-a-fault-waits-too", FLIGHT,
      "or not arb.valid and fc.settle_until_ms)",
      "or not arb.valid)",
-     "tests/tools/test_bench_family.py::test_a_track_ended_in_boost_waits_as_without_an_accelerometer"),
+     ARB_TESTS + "::test_an_accelerometer_that_stalled_in_the_boost_leaves_the_apogee_waiting"
+     "_as_without_one"),
     ("a-clip-is-a-run-of-readings", HEALTH,
      "if (health._clip_held_n >= _CLIP_HOLD_N\n",
      "if (True\n",

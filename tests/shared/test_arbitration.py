@@ -954,6 +954,25 @@ def test_an_accelerometer_judged_frozen_before_proof_leaves_the_proof_to_the_bar
     assert abs(out.early_s) <= 0.1, "drogue %.2f s before apogee" % out.early_s
 
 
+@pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH_ROCKET], ids=["mach1.0", "mach2.4"])
+@pytest.mark.parametrize("before_s, amp_m", [(2.0, -100.0), (3.0, -250.0)])
+def test_an_accelerometer_that_stalled_in_the_boost_leaves_the_apogee_waiting_as_without_one(
+        rocket, before_s, amp_m):
+    # the part holds one reading for 0.6 s from 0.8 s into the boost (judged frozen: its track
+    # ends for the flight), then reads again; a pressure transient decaying over 1 s comes 2 or 3 s
+    # before apogee. With the track gone the filter follows the barometer alone, whose decay it
+    # rides through zero: 0.6 to 1.2 s early without the wait of a barometer-only board (D16
+    # rule 11); with it, the filter's apogee waits baro_settle_s and the backup timer fires
+    fl = flight(rocket, Faults(transient_at_s=flight(rocket).apogee_s - before_s, transient_m=amp_m,
+                               transient_rise_s=0.2, transient_decay_s=1.0), after_apogee_s=15)
+    accel = fl.accel_mmps2.copy()
+    i0, i1 = np.searchsorted(fl.time_s, [0.8, 1.4])
+    accel[i0:i1] = accel[i0]
+    out = run_with_readings(fl, accel_mmps2=accel)
+    assert not out.fc.arb.valid and out.fc.health.accel_ok  # the track ended, the part reads again
+    assert out.drogue_s is not None and out.early_s <= 0, "drogue %.2f s before apogee" % out.early_s
+
+
 @pytest.mark.parametrize("factor, after_s", [(2, 2.6), (3, 2.6), (2.5, 3.6)])
 def test_an_accelerometer_reading_twice_the_truth_in_coast_does_not_decide_alone(factor, after_s):
     # from 1 s after the Mach 2.4 flight's burnout the accelerometer reads twice (or three times)

@@ -70,8 +70,8 @@ def test_a_track_ended_in_boost_waits_as_without_an_accelerometer():
     while the health called the accelerometer usable again; its apogee then waited as on a
     barometer-only board (docs/DESIGN.md D16 rule 11; without the wait the filter, ringing from
     the boost, fired 3.2 s early at 35 m/s). Now such a sample is judged as the clip and the
-    track runs on: 0.26 s late (the rule's mutant survives: docs/DESIGN.md, "Surviving
-    mutants")."""
+    track runs on: 0.26 s late (the rule's own test is now a part that stalls in the boost:
+    tests/shared/test_arbitration.py)."""
     (row,) = bench_family.fly_rocket((4, 149, ("accel_clipped",), ("both",)))
     assert -0.5 <= row["error_s"] <= 1.0
 
