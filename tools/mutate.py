@@ -306,7 +306,7 @@ MUTANTS = [
     ("accel-retire-needs-clean-baro", FLIGHT,
      "if fc.baro_excluded and now_ms - fc.health.baro_spike_ms >= _BARO_CLEAN_MS and (",
      "if fc.baro_excluded and (",
-     FLIGHT_TESTS + "::test_stuck_and_garbage_sensors_never_fire"),
+     ARB_TESTS + "::test_a_barometer_wandering_kilometres_with_glitches_never_retires_the_accelerometer"),
     ("proof-integrals-void-once-judged-bad", FLIGHT,
      "            fc.acc_account = False\n",
      "            pass\n",

@@ -973,6 +973,25 @@ def test_an_accelerometer_that_stalled_in_the_boost_leaves_the_apogee_waiting_as
     assert out.drogue_s is not None and out.early_s <= 0, "drogue %.2f s before apogee" % out.early_s
 
 
+@pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH14_ROCKET], ids=["mach1.0", "mach1.65"])
+def test_a_barometer_wandering_kilometres_with_glitches_never_retires_the_accelerometer(rocket):
+    # a broken barometer from 3 s after ignition: its reading wanders 1.5 km either side of the
+    # truth (a 6 s sine, slower than any spike test), and one reading a second is 5 km off (an
+    # impossible rate). Left out, it climbs farther above the accelerometer-carried filter than
+    # any barometric error, which rule 14 reads as an accelerometer that lies; but only a
+    # barometer without an impossible reading for 2 s may retire the accelerometer (D16 rule 14).
+    # Without that condition the healthy accelerometer was retired on every such flight, and the
+    # board flew on the broken barometer alone
+    fl = flight(rocket, after_apogee_s=15)
+    alt = fl.alt_mm.astype(np.int64)
+    on = np.flatnonzero(fl.time_s >= 3.0)
+    alt[on] += (1.5e6 * np.sin(2 * np.pi * (fl.time_s[on] - 3.0) / 6.0)).astype(np.int64)
+    alt[on[::100]] += 5_000_000  # 100 Hz: one reading a second
+    out = run_with_readings(fl, alt_mm=alt)
+    assert out.fc.health.accel_ok and not out.fc.health.flags & HEALTH_ACCEL_IMPLAUSIBLE
+    assert out.drogue_s is not None and out.early_s <= EARLY_LIMIT_S
+
+
 @pytest.mark.parametrize("factor, after_s", [(2, 2.6), (3, 2.6), (2.5, 3.6)])
 def test_an_accelerometer_reading_twice_the_truth_in_coast_does_not_decide_alone(factor, after_s):
     # from 1 s after the Mach 2.4 flight's burnout the accelerometer reads twice (or three times)
