@@ -996,6 +996,14 @@ def _check_proof(fc, cfg, dt_ms):
     Accelerometer only (or the barometer lost):
     the filter's climb held, at proof_speed_mps, after a boost of 0.3 s."""
     baro_ok = fc.health.baro_ok
+    now_ms = fc.now_ms
+    if (baro_ok and fc.arb.baro_rate_mmps > _HELD_FAST_MMPS and fc.health.accel_ok
+            and fc.health.accel_held_near_zero_ms(now_ms, _HELD_NEAR_ZERO_MMPS2) >= cfg.accel_stuck_ms
+            and now_ms - fc.health.baro_spike_ms >= _BARO_CLEAN_MS):
+        # D16 rule 14 before the proof, the barometer in use or not: one value near zero held
+        # accel_stuck_s while the barometer climbs faster than _HELD_FAST_MMPS reads no drag (a
+        # failed bus: zero bytes). Retired; the barometer proves the flight alone
+        _retire_accel(fc, now_ms, False)
     # (a clipped account short of proof_speed_mps gives no account: it only under-reads, and the
     # barometer alone proves the flight, as on a barometer-only board)
     accel_ok = fc.health.accel_ok and fc.acc_account and not (

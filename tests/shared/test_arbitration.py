@@ -994,6 +994,44 @@ def test_a_barometer_wandering_kilometres_with_glitches_never_retires_the_accele
     assert out.drogue_s is not None and out.early_s <= EARLY_LIMIT_S
 
 
+@pytest.mark.parametrize("thrust_n, burn_s", [(60, 0.5), (100, 0.3), (40, 0.8)])
+def test_a_coarse_accelerometer_reading_zero_in_a_slow_coast_is_not_retired_before_the_proof(
+        thrust_n, burn_s):
+    # a hop of about 40 m at 24 to 28 m/s (a motor that chuffed) on a coarse part: 49 mg a least
+    # significant bit (a 200 g part, the ADXL375's), its noise under half a bit. In the slow coast
+    # the drag is under half a bit, so the healthy part reads 0 for longer than accel_stuck_s
+    # before the flight is proven. Only a barometer climbing faster than _HELD_FAST_MMPS (whose
+    # drag no part reads as zero) retires such a part before the proof (D16 rule 14); without
+    # that condition it was retired, and the barometer-only proof's 100 m never came: no drogue
+    fl = flight(Rocket(thrust_n=thrust_n, burn_s=burn_s, prop_kg=0.02, dry_kg=1.0),
+                accel_noise_mps2=0.05)
+    lsb_mmps2 = 480.7
+    accel = (np.round(fl.accel_mmps2 / lsb_mmps2) * lsb_mmps2).astype(np.int64)
+    out = run_with_readings(fl, accel_mmps2=accel)
+    assert out.fc.health.accel_ok and not out.fc.health.flags & HEALTH_ACCEL_IMPLAUSIBLE
+    assert out.drogue_s is not None and -0.3 <= out.early_s <= EARLY_LIMIT_S
+
+
+@pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH_ROCKET], ids=["mach1.0", "mach2.4"])
+def test_a_barometer_wandering_kilometres_never_blames_an_accelerometer_reading_zeros(rocket):
+    # both parts broken before the proof: the accelerometer reads zeros from 0.3 s after ignition
+    # (a failed bus), the barometer wanders 1.5 km either side of the truth from 0.5 s with one
+    # reading a second 5 km off. Only a barometer without an impossible reading for 2 s may
+    # retire the accelerometer before the proof (D16 rule 14): without that condition the broken
+    # barometer retired it (the log's diagnosis: the accelerometer implausible) and the board
+    # flew on the broken barometer alone. Nothing fires before the backup timer either way
+    fl = flight(rocket, after_apogee_s=15)
+    alt = fl.alt_mm.astype(np.int64)
+    on = np.flatnonzero(fl.time_s >= 0.5)
+    alt[on] += (1.5e6 * np.sin(2 * np.pi * (fl.time_s[on] - 0.5) / 6.0)).astype(np.int64)
+    alt[on[::100]] += 5_000_000  # 100 Hz: one reading a second
+    accel = fl.accel_mmps2.copy()
+    accel[fl.time_s >= 0.3] = 0
+    out = run_with_readings(fl, alt_mm=alt, accel_mmps2=accel)
+    assert out.fc.health.accel_ok and not out.fc.health.flags & HEALTH_ACCEL_IMPLAUSIBLE
+    assert out.drogue_s is None or out.early_s <= EARLY_LIMIT_S
+
+
 @pytest.mark.parametrize("factor, after_s", [(2, 2.6), (3, 2.6), (2.5, 3.6)])
 def test_an_accelerometer_reading_twice_the_truth_in_coast_does_not_decide_alone(factor, after_s):
     # from 1 s after the Mach 2.4 flight's burnout the accelerometer reads twice (or three times)

@@ -76,6 +76,17 @@ def test_a_track_ended_in_boost_waits_as_without_an_accelerometer():
     assert -0.5 <= row["error_s"] <= 1.0
 
 
+def test_an_accelerometer_reading_zeros_from_the_boost_leaves_the_proof_to_the_barometer():
+    """Seed 13's rocket 17: 0.11 kg at 5 N for 2 s, to 308 m; its accelerometer reads zeros
+    from 0.73 to 4.84 s (a failed bus). The barometer, in use, climbs at up to 70 m/s while the
+    part holds zero: no drag, no part. Its account (27 m/s, 46 m) neither agreed with the
+    barometer's 300 m nor reached 100 m, and the flight was never proven: no drogue. Before the
+    proof, rule 14's held zero retires the part whether or not the barometer is left out (D13,
+    D16 rule 14), and the barometer proves the flight alone: 0.05 s late."""
+    (row,) = bench_family.fly_rocket((13, 17, ("accel_zeroed",), ("both",)))
+    assert row["error_s"] is not None and -0.5 <= row["error_s"] <= 0.3
+
+
 def test_an_accelerometer_that_read_zeros_in_a_low_boost_never_fires_early():
     """Seed 7's rocket 11: 0.2 kg at 12 g, its accelerometer reading zeros from 0.6 to 1.5 s of
     the boost. The track reads the boost 60 m/s slow and the barometer is left out. The change
