@@ -1109,6 +1109,17 @@ def _transition(fc, cfg, state, apogee):
         elif state == FAST:
             if not fast:
                 fc.state = COAST
+                bal = fc.arb.ballistic
+                if not fc.health.accel_ok and kf.vel_q4 > 0 and bal.tol_mmps:
+                    # the coast's ballistic test begins (D16 rule 10), but nothing tested the
+                    # barometer through the lockout: a fall there (frozen under its noise) went
+                    # unjudged. Held as after a run without a floor, until a window of the coast
+                    # clean for 1.5 s falls as a coast; only while the filter still climbs (no
+                    # window of a descent falls as a coast) and the test is on. (Written out
+                    # here: a function of shared/ballistic.py re-laid its names, +800
+                    # instructions a sample on the Cortex-M0)
+                    bal.holds = True
+                    bal.fail_ms = now_ms
         elif fast:
             fc.state = FAST
         _drogue_rule(fc, cfg, now_ms, apogee)

@@ -389,6 +389,19 @@ def test_a_fault_free_coast_sets_no_floor(rocket, lockout_s, seed):
     assert not out.fc.arb.ballistic.anchored
 
 
+@pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH_ROCKET], ids=["subsonic", "mach"])
+def test_a_lockout_that_ends_after_apogee_holds_nothing(rocket):
+    """A barometer-only board whose mach_lockout_s ends 2 s after apogee (no backup timer): the
+    filter already descends when the coast's test begins, and no window of a descent falls as a
+    coast (drag only slows a fall), so the lockout's end holds nothing: the drogue at once.
+    Holding there lost the drogue (docs/DESIGN.md D16 rule 10)."""
+    flight = fly(rocket)
+    lockout_s = round(flight.apogee_s + 2.0, 1)
+    out = run(flight, sensors="baro", mach_lockout_s=lockout_s)
+    launch_s = out.events[0][0]  # (the lockout counts from the launch)
+    assert out.drogue_s is not None and 0 <= out.drogue_s - (launch_s + lockout_s) <= 0.3
+
+
 def _transient_flight():
     """+100 m within 0.2 s, 6 s before apogee, decaying over 1.5 s."""
     base = fly(SUBSONIC_ROCKET)

@@ -226,6 +226,18 @@ def test_a_barometer_only_board_frozen_early_in_the_coast_holds_the_apogee(seed,
     assert -0.5 <= row["error_s"] <= 4.0
 
 
+def test_a_barometer_frozen_under_its_noise_in_the_mach_lockout_holds_the_apogee():
+    """Seed 23's rocket 103 on a barometer-only board: 0.9 kg at 16 g for 6.5 s, Mach 0.98, its
+    mach_lockout_s 3 s after it slows below Mach 0.8. Its barometer froze under its noise 0.7 s
+    before the lockout ended, at 120 m/s: the filter fell to zero within the lockout, where the
+    coast's ballistic test does not run, and its first windows after it only carried on the
+    fall's deceleration; the stillness count needs 1 s of still windows, the filter's apogee
+    came first: 6.87 s early at 82 m/s. The lockout's end holds the apogee until a clean window
+    of the coast falls as a coast (docs/DESIGN.md D16 rule 10): the backup timer."""
+    (row,) = bench_family.fly_rocket((23, 103, ("baro_frozen_noisy",), ("baro",)))
+    assert row["error_s"] is not None and -0.5 <= row["error_s"] <= 4.0
+
+
 def test_an_unwritable_rows_file_is_one_line_and_exit_2(tmp_path, capsys):
     assert bench_family.main(["--rockets", "1", "--rows", str(tmp_path / "no" / "rows.jsonl")]) == 2
     err = capsys.readouterr().err
