@@ -1013,7 +1013,12 @@ def _check_proof(fc, cfg, dt_ms):
         climb_mm = fc.baro_agl_mm
         line_mm = cfg.proof_climb_mm if accel_ok else cfg.proof_baro_climb_mm
     else:
+        # the filter's climb, or the accelerometer's own account when higher: a barometer
+        # judged bad (frozen, lost) may have pulled the filter down before it was judged, and a
+        # clipped account only under-reads
         climb_mm = fc.agl_mm
+        if accel_ok and fc.acc_h_mm > climb_mm:
+            climb_mm = fc.acc_h_mm
         line_mm = cfg.proof_climb_mm
     held = climb_mm >= line_mm
     if baro_ok and accel_ok:

@@ -325,6 +325,11 @@ MUTANTS = [
      "if fc.baro_excluded and now_ms - fc.health.baro_spike_ms >= _BARO_CLEAN_MS and (",
      "if fc.baro_excluded and (",
      ARB_TESTS + "::test_a_barometer_wandering_kilometres_with_glitches_never_retires_the_accelerometer"),
+    ("proof-accel-only-from-its-own-account-too", FLIGHT,
+     "        if accel_ok and fc.acc_h_mm > climb_mm:\n",
+     "        if False:\n",
+     "tests/tools/test_bench_family.py::"
+     "test_a_barometer_frozen_in_a_clipped_boost_leaves_the_proof_to_the_accelerometers_account"),
     ("accel-retired-before-proof-by-a-held-zero", FLIGHT,
      "        _retire_accel(fc, now_ms, False)\n    # (a clipped account short",
      "        pass\n    # (a clipped account short",

@@ -226,6 +226,18 @@ def test_a_barometer_only_board_frozen_early_in_the_coast_holds_the_apogee(seed,
     assert -0.5 <= row["error_s"] <= 4.0
 
 
+def test_a_barometer_frozen_in_a_clipped_boost_leaves_the_proof_to_the_accelerometers_account():
+    """Seed 21's rocket 151: 0.53 kg at 36 g for 0.7 s on a 16 g part, to 557 m; its barometer
+    freezes (repeating its reading) 0.3 s into the boost. Before it was judged stuck (1.8 s) it
+    pulled the filter to 42 m, and the filter then fell with the clipped track: the
+    accelerometer-only proof, on the filter's climb, never held, and nothing fired. The
+    accelerometer's own account, a lower bound after a clip (91 m, 88 m/s), proves the flight
+    (docs/DESIGN.md D13), and a clipped track leaves the drogue to the backup timer: 3.1 s late,
+    never early."""
+    (row,) = bench_family.fly_rocket((21, 151, ("baro_frozen",), ("both",)))
+    assert row["error_s"] is not None and 0 <= row["error_s"] <= 3.5
+
+
 def test_a_barometer_frozen_under_its_noise_in_the_mach_lockout_holds_the_apogee():
     """Seed 23's rocket 103 on a barometer-only board: 0.9 kg at 16 g for 6.5 s, Mach 0.98, its
     mach_lockout_s 3 s after it slows below Mach 0.8. Its barometer froze under its noise 0.7 s
