@@ -311,8 +311,7 @@ MUTANTS = [
     ("accel-retired-when-held-near-zero-fast", FLIGHT,
      "                    or arb.baro_rate_mmps > _HELD_FAST_MMPS\n",
      "                    or False\n",
-     "tests/tools/test_bench_faults.py"
-     "::test_a_model_rocket_whose_accelerometer_reads_zeros_is_proven_by_the_barometer"),
+     ARB_TESTS + "::test_an_accelerometer_reading_zeros_after_the_proof_is_retired_while_the_barometer_climbs_fast"),
     ("accel-only-apogee-against-live-baro", FLIGHT,
      "            and not (fc.baro_excluded and (arb.parted_beyond_lie(",
      "            and not (fc.baro_excluded and (False and arb.parted_beyond_lie(",

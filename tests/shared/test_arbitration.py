@@ -1032,6 +1032,25 @@ def test_a_barometer_wandering_kilometres_never_blames_an_accelerometer_reading_
     assert out.drogue_s is None or out.early_s <= EARLY_LIMIT_S
 
 
+@pytest.mark.parametrize("rocket, after_s",
+                         [(SUBSONIC_ROCKET, 0.3), (MACH14_ROCKET, 1.0), (MACH_ROCKET, 1.0)],
+                         ids=["mach1.0", "mach1.65", "mach2.4"])
+def test_an_accelerometer_reading_zeros_after_the_proof_is_retired_while_the_barometer_climbs_fast(
+        rocket, after_s):
+    # the part reads zeros (a failed bus) from after_s after burnout, the flight already proven:
+    # its track decelerates at g alone, the truthful barometer (slower: the drag) is left out, and
+    # the filter, carried by the zeros, stayed above zero to the backup timer (3.2 to 3.6 s late).
+    # Left out, climbing faster than _HELD_FAST_MMPS while the part holds one value near zero,
+    # the barometer retires it (D16 rule 14): the drogue at apogee. (Before the proof, rule 14's
+    # check in _check_proof retires such a part whatever the barometer's use)
+    fl = flight(rocket, after_apogee_s=15)
+    accel = fl.accel_mmps2.copy()
+    accel[fl.time_s >= rocket.burn_s + after_s] = 0
+    out = run_with_readings(fl, accel_mmps2=accel)
+    assert out.fc.health.flags & HEALTH_ACCEL_IMPLAUSIBLE
+    assert out.drogue_s is not None and -0.3 <= out.early_s <= EARLY_LIMIT_S
+
+
 @pytest.mark.parametrize("factor, after_s", [(2, 2.6), (3, 2.6), (2.5, 3.6)])
 def test_an_accelerometer_reading_twice_the_truth_in_coast_does_not_decide_alone(factor, after_s):
     # from 1 s after the Mach 2.4 flight's burnout the accelerometer reads twice (or three times)
