@@ -552,7 +552,8 @@ MUTANTS = [
     ("no-descent-only-while-the-rate-stands", FLIGHT,
      "\n              and -_DESCENT_MIN_MMPS < fc.arb.baro_rate_mmps < _DESCENT_MIN_MMPS\n",
      "\n",
-     "tests/tools/test_bench_faults.py::test_an_ejection_transient_under_the_drogue_does_not_retire_the_barometer"),
+     "tests/tools/test_bench_faults.py::"
+     "test_a_transient_held_to_the_drogue_does_not_retire_the_barometer_whose_rate_descends"),
     ("a-barometer-that-stands-still-is-not-taken-back", FLIGHT,
      "        elif rest > 1:\n",
      "        elif False:\n",

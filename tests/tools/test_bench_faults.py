@@ -759,6 +759,16 @@ def test_an_ejection_transient_under_the_drogue_does_not_retire_the_barometer(be
     assert abs(row["altitude_at_main_m"] - row["main_set_m"]) <= 20
 
 
+def test_a_transient_held_to_the_drogue_does_not_retire_the_barometer_whose_rate_descends(bench_cache):
+    """The fault benchmark's M1670 minimum-diameter, flight 26, both sensors: -297 m from burnout,
+    held to the drogue at 34.4 s, then decaying over 1.4 s. Its return and decay hold the reading
+    near the first descending sample's for seconds while its rate descends; only a barometer whose
+    rate also stands within 2 m/s of zero is retired under the drogue (D16 rule 24). Without the
+    rate's condition it was retired, and no main fired in the record (with it: 299 m for 300)."""
+    row = _bench_row(bench_cache, "m1670_min_dia", 26, "transient_burnout")
+    assert row["altitude_at_main_m"] is not None and abs(row["altitude_at_main_m"] - row["main_set_m"]) <= 20
+
+
 def test_a_clipped_boost_still_holds_the_filter_while_the_barometer_climbs_as_a_rocket(bench_cache):
     """The fault benchmark's C6, flight 133, both sensors: its part clips in the boost, so the
     track bounds the velocity from below only. 15 m low from 2.3 s before apogee, within 0.4 s,
