@@ -975,6 +975,17 @@ def test_an_accelerometer_that_stalled_in_the_boost_leaves_the_apogee_waiting_as
     assert out.drogue_s is not None and out.early_s <= 0, "drogue %.2f s before apogee" % out.early_s
 
 
+def _wandering_kilometres(fl, from_s):
+    """The barometric readings of a broken part from ``from_s`` on: 1.5 km either side of the truth
+    (a 6 s sine, slower than any spike test), and one reading a second 5 km off (an impossible
+    rate; 100 Hz)."""
+    alt = fl.alt_mm.astype(np.int64)
+    on = np.flatnonzero(fl.time_s >= from_s)
+    alt[on] += (1.5e6 * np.sin(2 * np.pi * (fl.time_s[on] - from_s) / 6.0)).astype(np.int64)
+    alt[on[::100]] += 5_000_000
+    return alt
+
+
 @pytest.mark.parametrize("rocket", [SUBSONIC_ROCKET, MACH14_ROCKET], ids=["mach1.0", "mach1.65"])
 def test_a_barometer_wandering_kilometres_with_glitches_never_retires_the_accelerometer(rocket):
     # a broken barometer from 3 s after ignition: its reading wanders 1.5 km either side of the
@@ -985,11 +996,7 @@ def test_a_barometer_wandering_kilometres_with_glitches_never_retires_the_accele
     # Without that condition the healthy accelerometer was retired on every such flight, and the
     # board flew on the broken barometer alone
     fl = flight(rocket, after_apogee_s=15)
-    alt = fl.alt_mm.astype(np.int64)
-    on = np.flatnonzero(fl.time_s >= 3.0)
-    alt[on] += (1.5e6 * np.sin(2 * np.pi * (fl.time_s[on] - 3.0) / 6.0)).astype(np.int64)
-    alt[on[::100]] += 5_000_000  # 100 Hz: one reading a second
-    out = run_with_readings(fl, alt_mm=alt)
+    out = run_with_readings(fl, alt_mm=_wandering_kilometres(fl, 3.0))
     assert out.fc.health.accel_ok and not out.fc.health.flags & HEALTH_ACCEL_IMPLAUSIBLE
     assert out.drogue_s is not None and out.early_s <= EARLY_LIMIT_S
 
@@ -1021,13 +1028,9 @@ def test_a_barometer_wandering_kilometres_never_blames_an_accelerometer_reading_
     # barometer retired it (the log's diagnosis: the accelerometer implausible) and the board
     # flew on the broken barometer alone. Nothing fires before the backup timer either way
     fl = flight(rocket, after_apogee_s=15)
-    alt = fl.alt_mm.astype(np.int64)
-    on = np.flatnonzero(fl.time_s >= 0.5)
-    alt[on] += (1.5e6 * np.sin(2 * np.pi * (fl.time_s[on] - 0.5) / 6.0)).astype(np.int64)
-    alt[on[::100]] += 5_000_000  # 100 Hz: one reading a second
     accel = fl.accel_mmps2.copy()
     accel[fl.time_s >= 0.3] = 0
-    out = run_with_readings(fl, alt_mm=alt, accel_mmps2=accel)
+    out = run_with_readings(fl, alt_mm=_wandering_kilometres(fl, 0.5), accel_mmps2=accel)
     assert out.fc.health.accel_ok and not out.fc.health.flags & HEALTH_ACCEL_IMPLAUSIBLE
     assert out.drogue_s is None or out.early_s <= EARLY_LIMIT_S
 
