@@ -311,7 +311,8 @@ MUTANTS = [
     ("accel-retired-when-held-near-zero-fast", FLIGHT,
      "                    or arb.baro_rate_mmps > _HELD_FAST_MMPS\n",
      "                    or False\n",
-     ARB_TESTS + "::test_an_accelerometer_reading_zeros_after_the_proof_is_retired_while_the_barometer_climbs_fast"),
+     ARB_TESTS + "::test_an_accelerometer_reading_zeros_after_the_proof_is_retired"
+     "_while_the_barometer_climbs_fast"),
     ("accel-only-apogee-against-live-baro", FLIGHT,
      "            and not (fc.baro_excluded and (arb.parted_beyond_lie(",
      "            and not (fc.baro_excluded and (False and arb.parted_beyond_lie(",
@@ -337,7 +338,8 @@ MUTANTS = [
     ("accel-retired-before-proof-only-while-the-barometer-climbs-fast", FLIGHT,
      "    if (baro_ok and fc.arb.baro_rate_mmps > _HELD_FAST_MMPS and fc.health.accel_ok\n",
      "    if (baro_ok and fc.health.accel_ok\n",
-     ARB_TESTS + "::test_a_coarse_accelerometer_reading_zero_in_a_slow_coast_is_not_retired_before_the_proof"),
+     ARB_TESTS + "::test_a_coarse_accelerometer_reading_zero_in_a_slow_coast"
+     "_is_not_retired_before_the_proof"),
     ("accel-retired-before-proof-only-by-a-clean-barometer", FLIGHT,
      "            and now_ms - fc.health.baro_spike_ms >= _BARO_CLEAN_MS):\n        # D16 rule 14 before",
      "            ):\n        # D16 rule 14 before",
